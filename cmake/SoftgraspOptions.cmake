@@ -1,0 +1,30 @@
+# Warnings and sanitizers live on an interface target; every softgrasp target links it.
+add_library(softgrasp_options INTERFACE)
+add_library(softgrasp::options ALIAS softgrasp_options)
+target_compile_options(softgrasp_options INTERFACE
+  $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wcast-align -Woverloaded-virtual -Wimplicit-fallthrough>
+  $<$<COMPILE_LANGUAGE:C>:-Wall -Wextra>)
+if(SOFTGRASP_WERROR)
+  target_compile_options(softgrasp_options INTERFACE -Werror)
+endif()
+if(SOFTGRASP_SANITIZER)
+  target_compile_options(softgrasp_options INTERFACE -fsanitize=${SOFTGRASP_SANITIZER} -fno-omit-frame-pointer)
+  target_link_options(softgrasp_options INTERFACE -fsanitize=${SOFTGRASP_SANITIZER})
+endif()
+# The project root is the include root: #include "service/core/depth.h".
+target_include_directories(softgrasp_options INTERFACE ${PROJECT_SOURCE_DIR})
+
+# softgrasp_add_test(NAME name SOURCES a.cpp ... LIBS lib ... [TIMEOUT s] [LABELS l])
+function(softgrasp_add_test)
+  cmake_parse_arguments(T "" "NAME;TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  if(NOT T_TIMEOUT)
+    set(T_TIMEOUT 60)
+  endif()
+  add_executable(${T_NAME} ${T_SOURCES})
+  target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} GTest::gtest GTest::gmock GTest::gtest_main softgrasp::options)
+  target_compile_definitions(${T_NAME} PRIVATE
+    SOFTGRASP_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    SOFTGRASP_SHARED_DATA_DIR="${PROJECT_SOURCE_DIR}/../shared/data")
+  gtest_discover_tests(${T_NAME} PROPERTIES TIMEOUT ${T_TIMEOUT} LABELS "${T_LABELS}"
+                       DISCOVERY_TIMEOUT 60)
+endfunction()

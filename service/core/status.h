@@ -1,0 +1,60 @@
+#pragma once
+/// Expected failures (bad uploads, nothing graspable) travel as values; broken preconditions throw.
+
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <variant>
+
+namespace softgrasp::core {
+
+/// What kind of expected failure happened. `rest/` maps each code to one HTTP status.
+enum class ErrorCode {
+  kInvalidArgument,       ///< a parameter or field is malformed or out of range (400)
+  kUnsupportedMediaType,  ///< the bytes are not a format we decode (415)
+  kPayloadTooLarge,       ///< too many pixels / bytes for the configured limits (413)
+  kUnprocessable,         ///< well-formed but cannot be used, e.g. an all-missing depth image (422)
+  kNotFound,              ///< (404)
+  kInternal,              ///< a bug on our side (500)
+};
+
+/// Stable snake_case name of a code, used in JSON error bodies.
+const char* ErrorCodeName(ErrorCode code);
+
+struct Error {
+  ErrorCode code = ErrorCode::kInternal;
+  std::string message;  ///< human-readable, says what is wrong and what is expected
+  std::string field;    ///< the request field at fault, empty when none applies
+};
+
+/// A value or an Error. Minimal on purpose: `ok()`, `value()`, `error()`.
+template <class T>
+class Result {
+ public:
+  Result(T value) : v_(std::move(value)) {}       // NOLINT(google-explicit-constructor)
+  Result(Error error) : v_(std::move(error)) {}   // NOLINT(google-explicit-constructor)
+
+  bool ok() const { return std::holds_alternative<T>(v_); }
+  explicit operator bool() const { return ok(); }
+
+  /// @throws std::logic_error if this holds an Error.
+  T& value() & { return Checked(); }
+  const T& value() const& { return const_cast<Result*>(this)->Checked(); }
+  T&& value() && { return std::move(Checked()); }
+
+  /// @pre !ok()
+  const Error& error() const { return std::get<Error>(v_); }
+
+ private:
+  T& Checked() {
+    if (!ok()) throw std::logic_error("Result::value() on error: " + std::get<Error>(v_).message);
+    return std::get<T>(v_);
+  }
+  std::variant<T, Error> v_;
+};
+
+inline Error MakeError(ErrorCode code, std::string message, std::string field = {}) {
+  return Error{code, std::move(message), std::move(field)};
+}
+
+}  // namespace softgrasp::core

@@ -1,0 +1,48 @@
+#pragma once
+/// Decoders for depth uploads and encoders for what we send back. Every decoder checks the
+/// declared image size against `max_pixels` before it allocates or decompresses anything.
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include <opencv2/core.hpp>
+
+#include "service/core/depth.h"
+#include "service/core/status.h"
+
+namespace softgrasp::io {
+
+enum class DepthFormat { kNpy, kPng16, kTiff };
+
+const char* DepthFormatName(DepthFormat format);  ///< "npy", "png16", "tiff"
+
+struct DepthDecodeOptions {
+  double png_unit_m = 0.001;             ///< metres per PNG count (default: millimetres)
+  std::int64_t max_pixels = 4096 * 4096; ///< larger images are refused before decoding (413)
+};
+
+/// Recognises the format from the magic bytes. kUnsupportedMediaType when none matches.
+core::Result<DepthFormat> SniffDepthFormat(std::string_view bytes);
+
+/// Decodes float32 .npy in metres (shape (H,W) or (H,W,1), either byte order), 16-bit PNG
+/// (counts x png_unit_m), or 32-bit float TIFF in metres. 0 and NaN (and inf, negative) become NaN.
+/// Errors: kUnsupportedMediaType (unknown format, wrong dtype or bit depth), kInvalidArgument
+/// (corrupt or truncated file, zero-size image), kPayloadTooLarge (over max_pixels); the message
+/// says which, field = "depth".
+core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
+                                           const DepthDecodeOptions& options = {});
+
+/// Parses GQ-CNN's `.intr` JSON: {"_fx", "_fy", "_cx", "_cy", "_width", "_height", "_frame"?}.
+/// kInvalidArgument (field = the key at fault) when malformed, missing or non-positive.
+core::Result<core::Camera> ParseIntrinsicsJson(std::string_view json);
+
+/// Float32 little-endian .npy, shape (H, W).
+std::string EncodeNpy(const cv::Mat1f& image);
+/// Lossless PNG of an 8-bit (1 or 3 channel, BGR) or 16-bit single-channel image.
+/// @throws std::invalid_argument for other types.
+std::string EncodePng(const cv::Mat& image);
+/// Float32 TIFF, one channel (used by tests and tools).
+std::string EncodeTiffFloat(const cv::Mat1f& image);
+
+}  // namespace softgrasp::io
