@@ -15,10 +15,15 @@ endif()
 target_include_directories(softgrasp_options INTERFACE ${PROJECT_SOURCE_DIR})
 
 # softgrasp_add_test(NAME name SOURCES a.cpp ... LIBS lib ... [TIMEOUT s] [LABELS l])
+# Timeout is per test case (default 60 s); labels default to the test folder's name.
 function(softgrasp_add_test)
   cmake_parse_arguments(T "" "NAME;TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
   if(NOT T_TIMEOUT)
     set(T_TIMEOUT 60)
+  endif()
+  if(NOT T_LABELS)
+    # Label by folder (tests/http -> "http") so a run can pick a layer: ctest -L http.
+    get_filename_component(T_LABELS ${CMAKE_CURRENT_SOURCE_DIR} NAME)
   endif()
   add_executable(${T_NAME} ${T_SOURCES})
   target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} GTest::gtest GTest::gmock GTest::gtest_main softgrasp::options)

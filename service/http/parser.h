@@ -46,19 +46,50 @@ class RequestParser {
   bool expects_continue() const { return expects_continue_; }
 
  private:
-  struct Impl;
-  // Implementation state (buffer, phase, chunk decoding) lives here.
-  std::string buffer_;
-  std::size_t pos_ = 0;
+  /// Where in the request the next byte belongs.
+  enum class Phase {
+    kRequestLine,   ///< request line (leading empty lines skipped)
+    kHeaders,       ///< header field lines up to the empty line
+    kBody,          ///< Content-Length body
+    kChunkSize,     ///< chunk-size line (with optional extensions)
+    kChunkData,     ///< chunk-data bytes
+    kChunkDataEnd,  ///< the CRLF after chunk-data
+    kTrailers,      ///< trailer field lines up to the empty line
+  };
+  /// Result of looking for the next CRLF-terminated line.
+  enum class LineStatus { kLine, kPartial, kBareLf };
+
+  State Advance();
+  State Fail(int status, std::string message);
+  LineStatus NextLine(std::string_view* line);
+  void ConsumeLine(std::string_view line);
+  bool StepRequestLine();
+  bool StepHeaderLine();
+  bool StepHeadersDone();
+  bool StepBody();
+  bool StepChunkSize();
+  bool StepChunkData();
+  bool StepChunkDataEnd();
+  bool StepTrailerLine();
+  bool CheckRequestLineLimits(std::string_view line, std::size_t line_bytes);
+  bool ParseRequestLine(std::string_view line);
+  void Complete();
+
+  std::string buffer_;            ///< received bytes; [pos_, end) not yet consumed
+  std::size_t pos_ = 0;           ///< first unconsumed byte of buffer_
+  std::size_t scanned_ = 0;       ///< bytes after pos_ already searched for '\n'
+  std::size_t header_bytes_ = 0;  ///< request line + fields (+ trailers) consumed so far
   Limits limits_;
   State state_ = State::kNeedMore;
   int error_status_ = 0;
   std::string error_message_;
-  bool keep_alive_ = true;
+  bool keep_alive_ = true;          ///< of the last taken request
+  bool request_keep_alive_ = true;  ///< of the request being parsed
   bool expects_continue_ = false;
-  int phase_ = 0;
-  std::size_t content_length_ = 0;
-  std::size_t chunk_remaining_ = 0;
+  bool http10_ = false;             ///< the request being parsed is HTTP/1.0
+  Phase phase_ = Phase::kRequestLine;
+  std::size_t content_length_ = 0;   ///< body bytes still to read (kBody)
+  std::size_t chunk_remaining_ = 0;  ///< chunk-data bytes still to read (kChunkData)
   Request current_;
 };
 

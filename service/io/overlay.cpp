@@ -1,0 +1,135 @@
+// Depth colour maps and grasp overlays (BGR).
+#include "service/io/overlay.h"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+namespace softgrasp::io {
+namespace {
+
+constexpr std::size_t kMaxPercentileSamples = std::size_t{1} << 20;
+constexpr int kShift = 4;  // sub-pixel bits for OpenCV's drawing functions
+constexpr double kFixedScale = 1 << kShift;
+constexpr double kMaxCoordinate = 1e6;  // grasps beyond this are not drawn (and cannot overflow)
+constexpr double kMinFingerPx = 2.0;    // fingers stay visible on small images
+
+struct GraspStyle {
+  cv::Scalar color;
+  int line_thickness;
+  int dot_radius;
+  bool filled_fingers;
+};
+
+const GraspStyle kBestStyle{cv::Scalar(0, 255, 0), 3, 4, true};          // green, filled
+const GraspStyle kOtherStyle{cv::Scalar(255, 255, 255), 1, 2, false};    // white, outlined
+
+bool IsValidDepth(float z) { return std::isfinite(z) && z > 0.0f; }
+
+float Percentile(std::vector<float>& values, double q) {
+  const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+/// The valid depths' 1st and 99th percentiles, from at most about a million samples.
+std::optional<std::pair<float, float>> ValidRange(const cv::Mat1f& depth) {
+  const std::size_t total = depth.total();
+  const std::size_t step = std::max<std::size_t>(1, total / kMaxPercentileSamples);
+  const auto cols = static_cast<std::size_t>(depth.cols);
+  std::vector<float> values;
+  for (std::size_t i = 0; i < total; i += step) {
+    const float z = depth(static_cast<int>(i / cols), static_cast<int>(i % cols));
+    if (IsValidDepth(z)) values.push_back(z);
+  }
+  if (values.empty()) return std::nullopt;
+  const float low = Percentile(values, 0.01);
+  const float high = Percentile(values, 0.99);
+  return std::make_pair(low, high);
+}
+
+cv::Point ToFixed(const cv::Point2d& p) {
+  return {cvRound(p.x * kFixedScale), cvRound(p.y * kFixedScale)};
+}
+
+bool IsDrawable(const core::Grasp& g) {
+  const double coordinates[] = {g.center_u_px, g.center_v_px, g.opening_px, g.finger_width_px,
+                                g.finger_thickness_px};
+  return std::isfinite(g.angle_rad) &&
+         std::all_of(std::begin(coordinates), std::end(coordinates),
+                     [](double x) { return std::isfinite(x) && std::abs(x) < kMaxCoordinate; });
+}
+
+/// A finger: `thickness` along the closing axis x `width` across it, centred at `center`.
+void DrawFinger(cv::Mat3b& image, const cv::Point2d& center, const cv::Point2d& axis,
+                double thickness, double width, const GraspStyle& style) {
+  const cv::Point2d along = axis * (std::max(thickness, kMinFingerPx) / 2);
+  const cv::Point2d across = cv::Point2d(-axis.y, axis.x) * (std::max(width, kMinFingerPx) / 2);
+  const std::vector<cv::Point> corners = {ToFixed(center - along - across),
+                                          ToFixed(center + along - across),
+                                          ToFixed(center + along + across),
+                                          ToFixed(center - along + across)};
+  if (style.filled_fingers) {
+    cv::fillConvexPoly(image, corners, style.color, cv::LINE_AA, kShift);
+  }
+  cv::polylines(image, std::vector<std::vector<cv::Point>>{corners}, true, style.color,
+                style.line_thickness, cv::LINE_AA, kShift);
+}
+
+void DrawGrasp(cv::Mat3b& image, const core::Grasp& g, const GraspStyle& style) {
+  if (!IsDrawable(g)) return;
+  const cv::Point2d center(g.center_u_px, g.center_v_px);
+  const cv::Point2d axis(std::cos(g.angle_rad), std::sin(g.angle_rad));
+  const double offset = std::abs(g.opening_px) / 2 + std::abs(g.finger_thickness_px) / 2;
+  const cv::Point2d finger_a = center - axis * offset;
+  const cv::Point2d finger_b = center + axis * offset;
+  DrawFinger(image, finger_a, axis, g.finger_thickness_px, g.finger_width_px, style);
+  DrawFinger(image, finger_b, axis, g.finger_thickness_px, g.finger_width_px, style);
+  cv::line(image, ToFixed(finger_a), ToFixed(finger_b), style.color, style.line_thickness,
+           cv::LINE_AA, kShift);
+  cv::circle(image, ToFixed(center), style.dot_radius << kShift, style.color, cv::FILLED,
+             cv::LINE_AA, kShift);
+}
+
+}  // namespace
+
+cv::Mat3b ColorizeDepth(const core::DepthImage& depth) {
+  if (depth.empty()) return {};
+  cv::Mat3b out(depth.depth_m.size(), cv::Vec3b(0, 0, 0));
+  const auto range = ValidRange(depth.depth_m);
+  if (!range) return out;
+  const auto [near_m, far_m] = *range;
+  const float span = std::max(far_m - near_m, 1e-6f);
+  // Near maps to 255, the warm end of the colour map.
+  cv::Mat1b levels(depth.depth_m.size(), 0);
+  cv::Mat1b valid(depth.depth_m.size(), 0);
+  for (int r = 0; r < depth.depth_m.rows; ++r) {
+    for (int c = 0; c < depth.depth_m.cols; ++c) {
+      const float z = depth.depth_m(r, c);
+      if (!IsValidDepth(z)) continue;
+      levels(r, c) = cv::saturate_cast<uchar>(255.0f * (far_m - z) / span);
+      valid(r, c) = 255;
+    }
+  }
+  cv::Mat colored;
+  cv::applyColorMap(levels, colored, cv::COLORMAP_TURBO);
+  colored.copyTo(out, valid);
+  return out;
+}
+
+cv::Mat3b RenderGraspOverlay(const core::DepthImage& depth,
+                             const std::vector<core::Grasp>& grasps) {
+  cv::Mat3b image = ColorizeDepth(depth);
+  if (image.empty()) return image;
+  // Lower-ranked grasps first, so the best one ends up on top.
+  for (std::size_t i = grasps.size(); i-- > 0;) {
+    DrawGrasp(image, grasps[i], i == 0 ? kBestStyle : kOtherStyle);
+  }
+  return image;
+}
+
+}  // namespace softgrasp::io

@@ -1,0 +1,169 @@
+#include "service/rest/api.h"
+
+#include <chrono>
+
+#include <nlohmann/json.hpp>
+
+#include "service/core/fge.h"
+#include "service/core/preprocess.h"
+#include "service/io/depth_codec.h"
+#include "service/io/overlay.h"
+#include "service/rest/build_info.h"
+#include "service/rest/grasp_request.h"
+
+namespace softgrasp::rest {
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+double MillisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+json GraspToJson(const core::Grasp& g, int rank) {
+  return {
+      {"rank", rank},
+      {"score", g.score},
+      {"center_px", {{"u", g.center_u_px}, {"v", g.center_v_px}}},
+      {"angle_rad", g.angle_rad},
+      {"opening_px", g.opening_px},
+      {"opening_m", g.opening_m},
+      {"finger_width_px", g.finger_width_px},
+      {"finger_thickness_px", g.finger_thickness_px},
+      {"contact_height_m", g.contact_height_m},
+      {"grasp_height_m", g.grasp_height_m},
+      {"height_step", g.height_step},
+      {"pose",
+       {{"frame", "camera"},
+        {"position_m", {g.p_CG_m[0], g.p_CG_m[1], g.p_CG_m[2]}},
+        {"orientation_wxyz", {g.q_CG_wxyz[0], g.q_CG_wxyz[1], g.q_CG_wxyz[2], g.q_CG_wxyz[3]}}}},
+  };
+}
+
+json CameraToJson(const core::Camera& c) {
+  return {{"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx},
+          {"cy", c.cy}, {"width", c.width}, {"height", c.height}};
+}
+
+json GripperToJson(const core::Gripper& g) {
+  return {{"opening_stroke_mm", g.opening_stroke_mm},
+          {"finger_width_mm", g.finger_width_mm},
+          {"finger_thickness_mm", g.finger_thickness_mm},
+          {"finger_length_mm", g.finger_length_mm}};
+}
+
+http::Response Healthz() { return http::Response::Json(200, R"({"status":"ok"})"); }
+
+http::Response Info(const ServiceConfig& config) {
+  const auto& limits = config.server.limits;
+  json body = {
+      {"name", "softgrasp"},
+      {"version", build_info::kVersion},
+      {"build",
+       {{"type", build_info::kBuildType},
+        {"compiler", build_info::kCompiler},
+        {"sanitizer", build_info::kSanitizer}}},
+      {"limits",
+       {{"max_body_bytes", limits.max_body_bytes},
+        {"max_header_bytes", limits.max_header_bytes},
+        {"max_uri_bytes", limits.max_uri_bytes},
+        {"max_image_pixels", config.max_image_pixels},
+        {"max_connections", config.server.max_connections},
+        {"queue_capacity", config.server.queue_capacity},
+        {"workers", config.server.num_workers},
+        {"read_timeout_ms", config.server.read_timeout_ms}}},
+      {"models", json::array()},
+      {"strategies", {"fge"}},
+      {"depth_formats", {"npy", "png16", "tiff"}},
+      {"defaults",
+       {{"camera", CameraToJson(config.default_camera)},
+        {"gripper", GripperToJson(config.default_gripper)},
+        {"top_k", config.fge.top_k},
+        {"num_angles", config.fge.num_angles},
+        {"num_height_steps", config.fge.num_height_steps},
+        {"height_step_m", config.fge.height_step_m},
+        {"png_unit_m", config.png_unit_m}}},
+  };
+  return http::Response::Json(200, body.dump());
+}
+
+http::Response Grasps(const http::Request& request, const ServiceConfig& config) {
+  const auto start = Clock::now();
+  auto parsed = ParseGraspRequest(request, config);
+  if (!parsed.ok()) return ErrorToResponse(parsed.error());
+  const GraspRequest& in = parsed.value();
+  const double decode_ms = MillisecondsSince(start);
+
+  const auto preprocess_start = Clock::now();
+  auto scene = core::Preprocess(in.depth, in.camera);
+  if (!scene.ok()) return ErrorToResponse(scene.error());
+  const double preprocess_ms = MillisecondsSince(preprocess_start);
+
+  const auto detect_start = Clock::now();
+  const std::vector<core::Grasp> grasps =
+      core::DetectGraspsFge(scene.value(), in.camera, in.gripper, in.fge);
+  const double detect_ms = MillisecondsSince(detect_start);
+
+  if (in.output == OutputFormat::kPng) {
+    http::Response png = http::Response::Bytes(
+        200, "image/png", io::EncodePng(io::RenderGraspOverlay(in.depth, grasps)));
+    png.set_header("X-Grasp-Count", std::to_string(grasps.size()));
+    return png;
+  }
+  json list = json::array();
+  for (std::size_t i = 0; i < grasps.size(); ++i) {
+    list.push_back(GraspToJson(grasps[i], static_cast<int>(i) + 1));
+  }
+  const core::Scene& s = scene.value();
+  json camera = CameraToJson(in.camera);
+  camera["source"] = in.camera_source;
+  json body = {
+      {"strategy", "fge"},
+      {"image",
+       {{"width", in.depth.width()},
+        {"height", in.depth.height()},
+        {"format", io::DepthFormatName(in.depth_format)},
+        {"missing_fraction", s.missing_fraction}}},
+      {"camera", camera},
+      {"floor", {{"normal", {s.floor.n[0], s.floor.n[1], s.floor.n[2]}}, {"d_m", s.floor.d}}},
+      {"gripper", GripperToJson(in.gripper)},
+      {"grasps", list},
+      {"timing_ms",
+       {{"decode", decode_ms},
+        {"preprocess", preprocess_ms},
+        {"detect", detect_ms},
+        {"total", MillisecondsSince(start)}}},
+  };
+  return http::Response::Json(200, body.dump());
+}
+
+}  // namespace
+
+int HttpStatusFor(core::ErrorCode code) {
+  switch (code) {
+    case core::ErrorCode::kInvalidArgument: return 400;
+    case core::ErrorCode::kUnsupportedMediaType: return 415;
+    case core::ErrorCode::kPayloadTooLarge: return 413;
+    case core::ErrorCode::kUnprocessable: return 422;
+    case core::ErrorCode::kNotFound: return 404;
+    case core::ErrorCode::kInternal: return 500;
+  }
+  return 500;
+}
+
+http::Response ErrorToResponse(const core::Error& error) {
+  return http::ErrorResponse(HttpStatusFor(error.code), core::ErrorCodeName(error.code),
+                             error.message, error.field);
+}
+
+http::Router BuildRouter(const ServiceConfig& config) {
+  http::Router router;
+  router.Add("GET", "/healthz", [](const http::Request&) { return Healthz(); });
+  router.Add("GET", "/v1/info", [config](const http::Request&) { return Info(config); });
+  router.Add("POST", "/v1/grasps",
+             [config](const http::Request& r) { return Grasps(r, config); });
+  return router;
+}
+
+}  // namespace softgrasp::rest

@@ -1,0 +1,47 @@
+#pragma once
+/// Service configuration: defaults, then a JSON file, then SOFTGRASP_* environment variables,
+/// then command-line flags. Printed at start-up.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "service/core/depth.h"
+#include "service/core/fge.h"
+#include "service/core/grasp.h"
+#include "service/core/status.h"
+#include "service/http/server.h"
+
+namespace softgrasp::rest {
+
+struct ServiceConfig {
+  http::ServerOptions server;            ///< host, port, workers, limits, timeouts
+  core::Camera default_camera;           ///< used when a request gives no intrinsics
+  core::Gripper default_gripper;
+  core::FgeParams fge;
+  double png_unit_m = 0.001;             ///< metres per 16-bit PNG count unless the request says
+  long long max_image_pixels = 4096LL * 4096;  ///< decompression-bomb guard, before decoding
+};
+
+/// Applies a JSON config document (see docs/configuration.md) onto `config`.
+/// kInvalidArgument naming the key when a value has the wrong type or range.
+core::Result<ServiceConfig> ApplyConfigJson(ServiceConfig config, const std::string& json_text);
+
+/// Applies SOFTGRASP_HOST, SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,
+/// SOFTGRASP_MAX_IMAGE_PIXELS from the environment.
+core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config);
+
+/// Parses argv: --host H, --port P, --config FILE, --workers N, --help. The config file is
+/// applied first, then the environment, then the other flags. `help` is set for --help.
+struct CommandLine {
+  ServiceConfig config;
+  bool help = false;
+};
+core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args);
+
+std::string UsageText();
+
+/// The effective configuration as JSON (no secrets exist yet; any added later are masked here).
+std::string ConfigToJson(const ServiceConfig& config);
+
+}  // namespace softgrasp::rest

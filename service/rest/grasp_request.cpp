@@ -1,0 +1,233 @@
+#include "service/rest/grasp_request.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <map>
+#include <optional>
+
+namespace softgrasp::rest {
+namespace {
+
+using core::ErrorCode;
+using core::MakeError;
+
+constexpr int kMaxTopK = 100;
+
+// Form fields and query parameters, merged (form fields win), plus the file parts.
+struct RequestFields {
+  std::map<std::string, std::string> values;
+  std::optional<std::string> depth_bytes;
+  std::optional<std::string> intrinsics_json;
+};
+
+bool IsRawDepthContentType(std::string_view type) {
+  for (std::string_view t : {"application/octet-stream", "application/x-npy", "image/png",
+                             "image/tiff"}) {
+    if (type.substr(0, t.size()) == t) return true;
+  }
+  return false;
+}
+
+core::Result<RequestFields> CollectFields(const http::Request& request) {
+  RequestFields fields;
+  for (const auto& [key, value] : request.query) fields.values[key] = value;
+
+  const std::string content_type(request.header("Content-Type").value_or(""));
+  if (content_type.rfind("multipart/form-data", 0) == 0) {
+    http::MultipartResult form = http::ParseMultipart(content_type, request.body);
+    if (!form.ok()) return MakeError(ErrorCode::kInvalidArgument, form.error, "body");
+    for (auto& part : form.parts) {
+      if (part.name == "depth") {
+        fields.depth_bytes = std::move(part.data);
+      } else if (part.name == "intrinsics") {
+        fields.intrinsics_json = std::move(part.data);
+      } else {
+        fields.values[part.name] = std::move(part.data);
+      }
+    }
+  } else if (IsRawDepthContentType(content_type)) {
+    fields.depth_bytes = request.body;
+  } else if (!request.body.empty() || !content_type.empty()) {
+    return MakeError(ErrorCode::kUnsupportedMediaType,
+                     "send the depth image as multipart/form-data (part 'depth') or as a raw body "
+                     "with Content-Type application/octet-stream, application/x-npy, image/png "
+                     "or image/tiff; got '" + content_type + "'",
+                     "Content-Type");
+  }
+  if (!fields.depth_bytes || fields.depth_bytes->empty()) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "a depth image is required: multipart part 'depth' or a raw body", "depth");
+  }
+  return fields;
+}
+
+core::Result<double> ParseNumber(const std::string& field, const std::string& text, double min,
+                                 double max) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || errno != 0 || end != text.c_str() + text.size() || !std::isfinite(v)) {
+    return MakeError(ErrorCode::kInvalidArgument, field + " must be a number, got '" + text + "'",
+                     field);
+  }
+  if (v < min || v > max) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     field + " must be in [" + std::to_string(min) + ", " + std::to_string(max) +
+                         "], got " + text,
+                     field);
+  }
+  return v;
+}
+
+// Numeric options: name -> range and where the value goes.
+struct NumericOption {
+  double min, max;
+  bool integer;
+  std::function<void(GraspRequest&, double)> apply;
+};
+
+const std::map<std::string, NumericOption>& NumericOptions() {
+  static const std::map<std::string, NumericOption> options = {
+      {"opening_stroke_mm", {1, 1000, false, [](GraspRequest& r, double v) { r.gripper.opening_stroke_mm = v; }}},
+      {"finger_width_mm", {0.5, 500, false, [](GraspRequest& r, double v) { r.gripper.finger_width_mm = v; }}},
+      {"finger_thickness_mm", {0.5, 500, false, [](GraspRequest& r, double v) { r.gripper.finger_thickness_mm = v; }}},
+      {"finger_length_mm", {1, 1000, false, [](GraspRequest& r, double v) { r.gripper.finger_length_mm = v; }}},
+      {"top_k", {1, kMaxTopK, true, [](GraspRequest& r, double v) { r.fge.top_k = static_cast<int>(v); }}},
+      {"num_angles", {1, 180, true, [](GraspRequest& r, double v) { r.fge.num_angles = static_cast<int>(v); }}},
+      {"num_height_steps", {1, 20, true, [](GraspRequest& r, double v) { r.fge.num_height_steps = static_cast<int>(v); }}},
+      {"height_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.fge.height_step_m = v / 1000.0; }}},
+      {"grip_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.fge.grip_depth_m = v / 1000.0; }}},
+  };
+  return options;
+}
+
+constexpr const char* kIntrinsicKeys[] = {"fx", "fy", "cx", "cy"};
+
+core::Result<core::Camera> ResolveCamera(const RequestFields& fields, const ServiceConfig& config,
+                                         const core::DepthImage& depth, std::string* source) {
+  core::Camera camera = config.default_camera;
+  *source = "default";
+  if (fields.intrinsics_json) {
+    auto parsed = io::ParseIntrinsicsJson(*fields.intrinsics_json);
+    if (!parsed.ok()) {
+      core::Error e = parsed.error();
+      e.message = "intrinsics: " + e.message;
+      return e;
+    }
+    camera = parsed.value();
+    *source = "request";
+  }
+  int given = 0;
+  for (const char* key : kIntrinsicKeys) given += fields.values.count(key) ? 1 : 0;
+  if (given != 0 && given != 4) {
+    return MakeError(ErrorCode::kInvalidArgument, "give all of fx, fy, cx, cy or none of them",
+                     "fx");
+  }
+  if (given == 4) {
+    double* targets[] = {&camera.fx, &camera.fy, &camera.cx, &camera.cy};
+    for (int i = 0; i < 4; ++i) {
+      const bool focal = i < 2;
+      auto v = ParseNumber(kIntrinsicKeys[i], fields.values.at(kIntrinsicKeys[i]),
+                           focal ? 1e-6 : -1e6, 1e6);
+      if (!v.ok()) return v.error();
+      *targets[i] = v.value();
+    }
+    *source = "request";
+  }
+  if (*source == "request" && fields.intrinsics_json &&
+      (camera.width != depth.width() || camera.height != depth.height())) {
+    return MakeError(ErrorCode::kUnprocessable,
+                     "intrinsics are for " + std::to_string(camera.width) + "x" +
+                         std::to_string(camera.height) + " but the depth image is " +
+                         std::to_string(depth.width()) + "x" + std::to_string(depth.height()),
+                     "intrinsics");
+  }
+  if (*source == "default" &&
+      (camera.width != depth.width() || camera.height != depth.height())) {
+    // Same focal lengths, principal point at the centre of this image.
+    camera.cx = (depth.width() - 1) / 2.0;
+    camera.cy = (depth.height() - 1) / 2.0;
+  }
+  camera.width = depth.width();
+  camera.height = depth.height();
+  return camera;
+}
+
+core::Result<OutputFormat> ResolveOutput(const http::Request& request,
+                                         const RequestFields& fields) {
+  if (const auto f = fields.values.find("format"); f != fields.values.end()) {
+    if (f->second == "json") return OutputFormat::kJson;
+    if (f->second == "png") return OutputFormat::kPng;
+    return MakeError(ErrorCode::kInvalidArgument, "format must be 'json' or 'png'", "format");
+  }
+  const std::string accept(request.header("Accept").value_or(""));
+  if (accept.find("image/png") != std::string::npos &&
+      accept.find("application/json") == std::string::npos) {
+    return OutputFormat::kPng;
+  }
+  return OutputFormat::kJson;
+}
+
+}  // namespace
+
+core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
+                                             const ServiceConfig& config) {
+  auto collected = CollectFields(request);
+  if (!collected.ok()) return collected.error();
+  const RequestFields& fields = collected.value();
+
+  GraspRequest out;
+  out.gripper = config.default_gripper;
+  out.fge = config.fge;
+
+  double png_unit_m = config.png_unit_m;
+  for (const auto& [key, text] : fields.values) {
+    if (key == "format" || key == "strategy") continue;
+    if (key == "png_unit_m") {
+      auto v = ParseNumber(key, text, 1e-6, 1.0);
+      if (!v.ok()) return v.error();
+      png_unit_m = v.value();
+      continue;
+    }
+    bool intrinsic = false;
+    for (const char* k : kIntrinsicKeys) intrinsic = intrinsic || key == k;
+    if (intrinsic) continue;
+    const auto option = NumericOptions().find(key);
+    if (option == NumericOptions().end()) {
+      return MakeError(ErrorCode::kInvalidArgument, "unknown field '" + key + "'", key);
+    }
+    auto v = ParseNumber(key, text, option->second.min, option->second.max);
+    if (!v.ok()) return v.error();
+    if (option->second.integer && v.value() != std::floor(v.value())) {
+      return MakeError(ErrorCode::kInvalidArgument, key + " must be an integer", key);
+    }
+    option->second.apply(out, v.value());
+  }
+  if (const auto s = fields.values.find("strategy");
+      s != fields.values.end() && s->second != "fge") {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "strategy must be 'fge' (no stiffness model is loaded)", "strategy");
+  }
+  auto output = ResolveOutput(request, fields);
+  if (!output.ok()) return output.error();
+  out.output = output.value();
+
+  auto format = io::SniffDepthFormat(*fields.depth_bytes);
+  if (!format.ok()) return format.error();
+  out.depth_format = format.value();
+  io::DepthDecodeOptions decode;
+  decode.png_unit_m = png_unit_m;
+  decode.max_pixels = config.max_image_pixels;
+  auto depth = io::DecodeDepth(*fields.depth_bytes, decode);
+  if (!depth.ok()) return depth.error();
+  out.depth = std::move(depth).value();
+
+  auto camera = ResolveCamera(fields, config, out.depth, &out.camera_source);
+  if (!camera.ok()) return camera.error();
+  out.camera = camera.value();
+  return out;
+}
+
+}  // namespace softgrasp::rest

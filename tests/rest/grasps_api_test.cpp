@@ -1,0 +1,209 @@
+// POST /v1/grasps end to end: real server, real socket, real depth files.
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "service/io/depth_codec.h"
+#include "tests/rest/server_fixture.h"
+
+namespace softgrasp::rest {
+namespace {
+
+using nlohmann::json;
+using testing::FormPart;
+using testing::MultipartRequest;
+using testing::RawRequest;
+using testing::ReadFileBytes;
+using testing::RunningServer;
+using testing::SharedData;
+
+class GraspsApiTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { server_ = new RunningServer(); }
+  static void TearDownTestSuite() {
+    delete server_;
+    server_ = nullptr;
+  }
+  static RunningServer* server_;
+};
+RunningServer* GraspsApiTest::server_ = nullptr;
+
+json ExpectError(const testing::HttpReply& reply, int status, const std::string& field = "") {
+  EXPECT_EQ(reply.status, status) << reply.body;
+  EXPECT_EQ(reply.header("Content-Type").value_or(""), "application/json");
+  const json body = json::parse(reply.body, nullptr, false);
+  EXPECT_TRUE(body.contains("error")) << reply.body;
+  if (!body.contains("error")) return body;
+  EXPECT_TRUE(body["error"]["code"].is_string());
+  EXPECT_FALSE(body["error"]["message"].get<std::string>().empty());
+  if (!field.empty()) {
+    EXPECT_EQ(body["error"].value("field", ""), field) << reply.body;
+  }
+  return body;
+}
+
+TEST_F(GraspsApiTest, PrimesenseFramesGiveGraspsOnTheObject) {
+  for (int i = 0; i < 3; ++i) {
+    SCOPED_TRACE("single_depth_" + std::to_string(i));
+    const auto reply = server_->Send(MultipartRequest(
+        "/v1/grasps",
+        {{"depth", ReadFileBytes(SharedData("gqcnn/primesense/single_depth_" + std::to_string(i) + ".npy")), "d.npy"},
+         {"intrinsics", ReadFileBytes(SharedData("gqcnn/primesense/primesense.intr")), "p.intr"}}));
+    ASSERT_EQ(reply.status, 200) << reply.body;
+    const json body = json::parse(reply.body);
+    EXPECT_EQ(body["camera"]["source"], "request");
+    EXPECT_EQ(body["camera"]["fx"], 525.0);
+    EXPECT_EQ(body["image"]["format"], "npy");
+    ASSERT_FALSE(body["grasps"].empty());
+    const json& best = body["grasps"][0];
+    EXPECT_EQ(best["rank"], 1);
+    const cv::Mat mask = cv::imread(
+        SharedData("gqcnn/primesense/single_segmask_" + std::to_string(i) + ".png"),
+        cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(mask.empty());
+    const int u = static_cast<int>(std::lround(best["center_px"]["u"].get<double>()));
+    const int v = static_cast<int>(std::lround(best["center_px"]["v"].get<double>()));
+    EXPECT_GT(mask.at<uint8_t>(v, u), 0) << "best grasp centre (" << u << ", " << v
+                                         << ") is off the object";
+    // The pose lies on the centre pixel's ray: u = fx x / z + cx.
+    const auto& p = best["pose"]["position_m"];
+    const double z = p[2].get<double>();
+    ASSERT_GT(z, 0.4);
+    EXPECT_NEAR(525.0 * p[0].get<double>() / z + 319.5, best["center_px"]["u"].get<double>(), 0.5);
+    EXPECT_NEAR(525.0 * p[1].get<double>() / z + 239.5, best["center_px"]["v"].get<double>(), 0.5);
+    double norm = 0;
+    for (const auto& q : best["pose"]["orientation_wxyz"]) norm += q.get<double>() * q.get<double>();
+    EXPECT_NEAR(norm, 1.0, 1e-9);
+    // Ranked best first.
+    for (std::size_t k = 1; k < body["grasps"].size(); ++k) {
+      EXPECT_GE(body["grasps"][k - 1]["score"].get<double>(), body["grasps"][k]["score"].get<double>());
+    }
+  }
+}
+
+TEST_F(GraspsApiTest, PhoxiFrameWithMissingPixelsGivesGrasps) {
+  const auto reply = server_->Send(MultipartRequest(
+      "/v1/grasps",
+      {{"depth", ReadFileBytes(SharedData("gqcnn/phoxi/clutter_depth_0.npy")), "d.npy"},
+       {"intrinsics", ReadFileBytes(SharedData("gqcnn/phoxi/phoxi.intr")), "p.intr"}}));
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  const json body = json::parse(reply.body);
+  EXPECT_NEAR(body["image"]["missing_fraction"].get<double>(), 0.31, 0.02);
+  EXPECT_FALSE(body["grasps"].empty());
+}
+
+TEST_F(GraspsApiTest, RawBodyWithQueryIntrinsicsAndTopK) {
+  const auto reply = server_->Send(RawRequest(
+      "POST", "/v1/grasps?fx=525&fy=525&cx=319.5&cy=239.5&top_k=2", "application/x-npy",
+      ReadFileBytes(SharedData("gqcnn/primesense/single_depth_1.npy"))));
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  const json body = json::parse(reply.body);
+  EXPECT_EQ(body["camera"]["source"], "request");
+  EXPECT_LE(body["grasps"].size(), 2u);
+  EXPECT_FALSE(body["grasps"].empty());
+}
+
+TEST_F(GraspsApiTest, Png16InMillimetresGivesTheSameGraspsAsNpy) {
+  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  auto depth = io::DecodeDepth(npy);
+  ASSERT_TRUE(depth.ok());
+  cv::Mat1w mm;
+  depth.value().depth_m.convertTo(mm, CV_16U, 1000.0);
+  const auto reply_png = server_->Send(
+      RawRequest("POST", "/v1/grasps", "image/png", io::EncodePng(mm)));
+  const auto reply_npy = server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", npy));
+  ASSERT_EQ(reply_png.status, 200) << reply_png.body;
+  ASSERT_EQ(reply_npy.status, 200) << reply_npy.body;
+  const json a = json::parse(reply_png.body)["grasps"][0];
+  const json b = json::parse(reply_npy.body)["grasps"][0];
+  EXPECT_EQ(json::parse(reply_png.body)["image"]["format"], "png16");
+  EXPECT_NEAR(a["center_px"]["u"].get<double>(), b["center_px"]["u"].get<double>(), 3.0);
+  EXPECT_NEAR(a["center_px"]["v"].get<double>(), b["center_px"]["v"].get<double>(), 3.0);
+}
+
+TEST_F(GraspsApiTest, OverlayPngHasTheImageSize) {
+  for (const std::string& how : {std::string("query"), std::string("accept")}) {
+    const std::string target = how == "query" ? "/v1/grasps?format=png" : "/v1/grasps";
+    const std::string headers = how == "accept" ? "Accept: image/png\r\n" : "";
+    const auto reply = server_->Send(MultipartRequest(
+        target, {{"depth", ReadFileBytes(SharedData("gqcnn/primesense/single_depth_2.npy")), "d.npy"}},
+        headers));
+    ASSERT_EQ(reply.status, 200) << reply.body;
+    EXPECT_EQ(reply.header("Content-Type").value_or(""), "image/png");
+    EXPECT_GE(std::stoi(std::string(reply.header("X-Grasp-Count").value_or("0"))), 1);
+    const cv::Mat image = cv::imdecode(
+        cv::Mat(1, static_cast<int>(reply.body.size()), CV_8U, const_cast<char*>(reply.body.data())),
+        cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(image.empty());
+    EXPECT_EQ(image.cols, 640);
+    EXPECT_EQ(image.rows, 480);
+    EXPECT_EQ(image.channels(), 3);
+  }
+}
+
+TEST_F(GraspsApiTest, TruncatedNpyIsA4xxWithAClearMessage) {
+  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  const auto header_cut = server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy.substr(0, 40), "d.npy"}}));
+  ExpectError(header_cut, 400, "depth");
+  const auto data_cut = server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy.substr(0, 5000), "d.npy"}}));
+  ExpectError(data_cut, 400, "depth");
+}
+
+TEST_F(GraspsApiTest, EightBitPngIsUnsupported) {
+  const cv::Mat1b eight(48, 64, uint8_t{100});
+  const auto reply = server_->Send(MultipartRequest("/v1/grasps", {{"depth", io::EncodePng(eight), "d.png"}}));
+  const json body = ExpectError(reply, 415, "depth");
+  EXPECT_NE(body["error"]["message"].get<std::string>().find("16-bit"), std::string::npos);
+}
+
+TEST_F(GraspsApiTest, AllMissingDepthIsUnprocessable) {
+  const cv::Mat1f zeros(48, 64, 0.0f);
+  const auto reply = server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", io::EncodeNpy(zeros)));
+  ExpectError(reply, 422);
+}
+
+TEST_F(GraspsApiTest, MissingDepthPartNamesTheField) {
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"top_k", "3", ""}})), 400, "depth");
+}
+
+TEST_F(GraspsApiTest, BadParametersNameTheirField) {
+  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"top_k", "0", ""}})), 400, "top_k");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"fx", "abc", ""}, {"fy", "1", ""}, {"cx", "1", ""}, {"cy", "1", ""}})), 400, "fx");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"fx", "500", ""}})), 400, "fx");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"colour", "red", ""}})), 400, "colour");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"strategy", "stiffness", ""}})), 400, "strategy");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", "{\"_fx\": 1}", "p.intr"}})), 400);
+  ExpectError(server_->Send(RawRequest("POST", "/v1/grasps", "text/plain", "hello")), 415, "Content-Type");
+}
+
+TEST_F(GraspsApiTest, IntrinsicsOfAnotherImageSizeAreRefused) {
+  const auto reply = server_->Send(MultipartRequest(
+      "/v1/grasps",
+      {{"depth", ReadFileBytes(SharedData("gqcnn/phoxi/clutter_depth_0.npy")), "d.npy"},
+       {"intrinsics", ReadFileBytes(SharedData("gqcnn/primesense/primesense.intr")), "p.intr"}}));
+  ExpectError(reply, 422, "intrinsics");
+}
+
+TEST(GraspsApiLimitsTest, ImagesOverThePixelLimitAreRefusedBeforeDecoding) {
+  ServiceConfig config;
+  config.max_image_pixels = 640 * 480 - 1;
+  RunningServer server(config);
+  const auto reply = server.Send(MultipartRequest(
+      "/v1/grasps", {{"depth", ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy")), "d.npy"}}));
+  ExpectError(reply, 413, "depth");
+}
+
+TEST(GraspsApiLimitsTest, BodiesOverTheByteLimitGet413) {
+  ServiceConfig config;
+  config.server.limits.max_body_bytes = 1000;
+  RunningServer server(config);
+  const auto reply = server.Send(RawRequest("POST", "/v1/grasps", "application/x-npy", std::string(5000, 'x')));
+  EXPECT_EQ(reply.status, 413);
+}
+
+}  // namespace
+}  // namespace softgrasp::rest
