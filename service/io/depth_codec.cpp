@@ -1,9 +1,10 @@
 // Format sniffing and dispatch for depth uploads, plus the helpers the format decoders share.
+#include "service/io/depth_codec.h"
+
 #include <cmath>
 #include <limits>
 #include <utility>
 
-#include "service/io/depth_codec.h"
 #include "service/io/depth_codec_internal.h"
 
 namespace softgrasp::io {
@@ -15,7 +16,7 @@ core::Error DepthError(core::ErrorCode code, std::string message) {
 
 std::optional<core::Error> CheckImageSize(std::int64_t height, std::int64_t width,
                                           std::int64_t max_pixels, std::string_view what) {
-  const std::string size = std::to_string(height) + "x" + std::to_string(width);
+  const std::string size = std::to_string(width) + "x" + std::to_string(height);
   if (height <= 0 || width <= 0) {
     return DepthError(core::ErrorCode::kInvalidArgument,
                       std::string(what) + " image is empty (" + size + " pixels)");
@@ -60,9 +61,12 @@ void MarkMissing(cv::Mat1f& depth) {
 
 const char* DepthFormatName(DepthFormat format) {
   switch (format) {
-    case DepthFormat::kNpy: return "npy";
-    case DepthFormat::kPng16: return "png16";
-    case DepthFormat::kTiff: return "tiff";
+    case DepthFormat::kNpy:
+      return "npy";
+    case DepthFormat::kPng16:
+      return "png16";
+    case DepthFormat::kTiff:
+      return "tiff";
   }
   return "unknown";
 }
@@ -89,9 +93,15 @@ core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
   if (!format) return format.error();
   core::Result<cv::Mat1f> image = cv::Mat1f();
   switch (format.value()) {
-    case DepthFormat::kNpy: image = detail::DecodeNpy(bytes, options.max_pixels); break;
-    case DepthFormat::kPng16: image = detail::DecodePng16(bytes, options); break;
-    case DepthFormat::kTiff: image = detail::DecodeTiff(bytes, options.max_pixels); break;
+    case DepthFormat::kNpy:
+      image = detail::DecodeNpy(bytes, options.max_pixels);
+      break;
+    case DepthFormat::kPng16:
+      image = detail::DecodePng16(bytes, options);
+      break;
+    case DepthFormat::kTiff:
+      image = detail::DecodeTiff(bytes, options.max_pixels);
+      break;
   }
   if (!image) return image.error();
   core::DepthImage depth{std::move(image).value()};

@@ -3,11 +3,10 @@
 /// Every decoder returns the raw float image (missing values not yet normalised to NaN).
 
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
-
-#include <opencv2/core.hpp>
 
 #include "service/core/status.h"
 #include "service/io/depth_codec.h"

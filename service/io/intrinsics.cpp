@@ -4,9 +4,8 @@
 // Only the pinhole parameters and the image size are used; "_frame", "_skew" and "_K" are ignored.
 #include <climits>
 #include <cmath>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "service/io/depth_codec.h"
 
@@ -53,9 +52,10 @@ core::Result<int> ReadImageSide(const json& doc, const std::string& key) {
 core::Result<core::Camera> ParseIntrinsicsJson(std::string_view text) {
   const json doc = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded() || !doc.is_object()) {
-    return IntrinsicsError("intrinsics must be a JSON object like GQ-CNN's .intr files "
-                           "({\"_fx\", \"_fy\", \"_cx\", \"_cy\", \"_width\", \"_height\"})",
-                           "intrinsics");
+    return IntrinsicsError(
+        "intrinsics must be a JSON object like GQ-CNN's .intr files "
+        "({\"_fx\", \"_fy\", \"_cx\", \"_cy\", \"_width\", \"_height\"})",
+        "intrinsics");
   }
   const auto fx = ReadPositive(doc, "_fx");
   if (!fx) return fx.error();
@@ -69,8 +69,8 @@ core::Result<core::Camera> ParseIntrinsicsJson(std::string_view text) {
   if (!width) return width.error();
   const auto height = ReadImageSide(doc, "_height");
   if (!height) return height.error();
-  return core::Camera{fx.value(), fy.value(), cx.value(), cy.value(), width.value(),
-                      height.value()};
+  return core::Camera{fx.value(), fy.value(),    cx.value(),
+                      cy.value(), width.value(), height.value()};
 }
 
 }  // namespace softgrasp::io

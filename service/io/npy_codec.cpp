@@ -75,11 +75,10 @@ class NpyHeaderParser {
     SkipSpace();
     if (!Consume(':')) return Malformed("':'");
     SkipSpace();
-    switch (index) {
-      case 0: return ParseDescr(header.descr);
-      case 1: return ParseBool(header.fortran_order) ? std::nullopt : Malformed("True or False");
-      default: return ParseTuple(header.shape) ? std::nullopt : Malformed("a tuple of integers");
-    }
+    if (index == 0) return ParseDescr(header.descr);
+    if (index == 1 && !ParseBool(header.fortran_order)) return Malformed("True or False");
+    if (index == 2 && !ParseTuple(header.shape)) return Malformed("a tuple of integers");
+    return std::nullopt;
   }
 
   std::optional<core::Error> ParseDescr(std::string& descr) {
@@ -226,8 +225,7 @@ core::Result<bool> CheckDtype(const std::string& descr) {
 }
 
 /// (H, W) or (H, W, 1), within max_pixels; returns the size as (rows, cols).
-core::Result<cv::Size> CheckShape(const std::vector<std::int64_t>& shape,
-                                  std::int64_t max_pixels) {
+core::Result<cv::Size> CheckShape(const std::vector<std::int64_t>& shape, std::int64_t max_pixels) {
   const bool image_shape = shape.size() == 2 || (shape.size() == 3 && shape[2] == 1);
   if (!image_shape) {
     const bool empty = shape.size() == 3 && shape[2] == 0;
@@ -277,8 +275,8 @@ core::Result<cv::Mat1f> DecodeNpy(std::string_view bytes, std::int64_t max_pixel
 
   const auto [cols, rows] = size.value();
   const std::string_view data = layout.value().data;
-  const std::uint64_t needed = static_cast<std::uint64_t>(rows) * static_cast<std::uint64_t>(cols) *
-                               sizeof(float);
+  const std::uint64_t needed =
+      static_cast<std::uint64_t>(rows) * static_cast<std::uint64_t>(cols) * sizeof(float);
   if (data.size() < needed) {
     return DepthError(ErrorCode::kInvalidArgument,
                       "NPY data is truncated: shape " + ShapeText(header.shape) + " needs " +

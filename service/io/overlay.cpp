@@ -3,11 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <utility>
 #include <vector>
-
-#include <opencv2/imgproc.hpp>
 
 namespace softgrasp::io {
 namespace {
@@ -25,8 +24,8 @@ struct GraspStyle {
   bool filled_fingers;
 };
 
-const GraspStyle kBestStyle{cv::Scalar(0, 255, 0), 3, 4, true};          // green, filled
-const GraspStyle kOtherStyle{cv::Scalar(255, 255, 255), 1, 2, false};    // white, outlined
+const GraspStyle kBestStyle{cv::Scalar(0, 255, 0), 3, 4, true};        // green, filled
+const GraspStyle kOtherStyle{cv::Scalar(255, 255, 255), 1, 2, false};  // white, outlined
 
 bool IsValidDepth(float z) { return std::isfinite(z) && z > 0.0f; }
 
@@ -69,10 +68,9 @@ void DrawFinger(cv::Mat3b& image, const cv::Point2d& center, const cv::Point2d& 
                 double thickness, double width, const GraspStyle& style) {
   const cv::Point2d along = axis * (std::max(thickness, kMinFingerPx) / 2);
   const cv::Point2d across = cv::Point2d(-axis.y, axis.x) * (std::max(width, kMinFingerPx) / 2);
-  const std::vector<cv::Point> corners = {ToFixed(center - along - across),
-                                          ToFixed(center + along - across),
-                                          ToFixed(center + along + across),
-                                          ToFixed(center - along + across)};
+  const std::vector<cv::Point> corners = {
+      ToFixed(center - along - across), ToFixed(center + along - across),
+      ToFixed(center + along + across), ToFixed(center - along + across)};
   if (style.filled_fingers) {
     cv::fillConvexPoly(image, corners, style.color, cv::LINE_AA, kShift);
   }

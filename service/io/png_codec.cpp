@@ -1,14 +1,18 @@
 // 16-bit grayscale PNG depth (counts x png_unit_m metres). The IHDR chunk is read by hand first so
-// that the size and pixel format are checked before anything is decompressed.
-#include <climits>
+// that the size and pixel format are checked before anything is decompressed; then libpng decodes
+// from memory with its messages captured (nothing is printed). cv::imencode writes PNGs.
+#include <png.h>
+
+#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <opencv2/imgcodecs.hpp>
 
 #include "service/io/depth_codec.h"
 #include "service/io/depth_codec_internal.h"
@@ -40,12 +44,18 @@ std::uint32_t ReadBigEndian32(std::string_view bytes, std::size_t offset) {
 
 std::string ColorTypeName(int color_type) {
   switch (color_type) {
-    case 0: return "grayscale";
-    case 2: return "RGB";
-    case 3: return "palette";
-    case 4: return "grayscale+alpha";
-    case 6: return "RGBA";
-    default: return "colour type " + std::to_string(color_type);
+    case 0:
+      return "grayscale";
+    case 2:
+      return "RGB";
+    case 3:
+      return "palette";
+    case 4:
+      return "grayscale+alpha";
+    case 6:
+      return "RGBA";
+    default:
+      return "colour type " + std::to_string(color_type);
   }
 }
 
@@ -78,20 +88,69 @@ std::optional<core::Error> CheckHeader(const PngHeader& header, std::int64_t max
   return detail::CheckImageSize(header.height, header.width, max_pixels, "PNG");
 }
 
-core::Result<cv::Mat> DecodeWithOpenCv(std::string_view bytes) {
-  if (bytes.size() > static_cast<std::size_t>(INT_MAX)) {
-    return DepthError(ErrorCode::kPayloadTooLarge, "PNG file is larger than 2 GiB");
+/// State shared with libpng's callbacks. libpng reports errors by longjmp, so it is kept plain.
+struct PngSource {
+  std::string_view bytes;
+  std::size_t pos = 0;
+  char error[160] = "";
+};
+
+void ReadFromMemory(png_structp png, png_bytep out, png_size_t count) {
+  auto& source = *static_cast<PngSource*>(png_get_io_ptr(png));
+  if (count > source.bytes.size() - source.pos) png_error(png, "the file is truncated");
+  std::memcpy(out, source.bytes.data() + source.pos, count);
+  source.pos += count;
+}
+
+[[noreturn]] void OnPngError(png_structp png, png_const_charp message) {
+  auto& source = *static_cast<PngSource*>(png_get_error_ptr(png));
+  std::snprintf(source.error, sizeof(source.error), "%s", message);
+  png_longjmp(png, 1);
+}
+
+void OnPngWarning(png_structp, png_const_charp) {}
+
+/// Decodes the image `header` describes into `rows` as host-order 16-bit samples; false after a
+/// libpng error. libpng longjmps back to the setjmp here: nothing in this frame has a destructor.
+bool ReadRows(png_structp png, png_infop info, const PngHeader& header, png_bytepp rows) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  png_set_benign_errors(png, 0);  // e.g. missing image data is an error, not a warning
+  png_read_info(png, info);
+  if (png_get_image_width(png, info) != header.width ||
+      png_get_image_height(png, info) != header.height || png_get_bit_depth(png, info) != 16 ||
+      png_get_color_type(png, info) != kColorGray) {
+    png_error(png, "the image header changed while decoding");
   }
-  // imdecode only reads from the buffer; the const_cast is for cv::Mat's constructor.
-  const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1,
-                        const_cast<char*>(bytes.data()));  // NOLINT(cppcoreguidelines-pro-type-const-cast)
-  try {
-    cv::Mat decoded = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
-    if (!decoded.empty()) return decoded;
-  } catch (const cv::Exception& e) {
-    return DepthError(ErrorCode::kInvalidArgument, std::string("corrupt PNG: ") + e.what());
+  if (std::endian::native == std::endian::little) png_set_swap(png);
+  png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  png_read_image(png, rows);
+  return true;
+}
+
+struct PngReadStruct {
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  ~PngReadStruct() { png_destroy_read_struct(&png, &info, nullptr); }
+};
+
+/// The 16-bit counts of a PNG whose IHDR `header` has been checked.
+core::Result<cv::Mat1w> DecodeCounts(std::string_view bytes, const PngHeader& header) {
+  cv::Mat1w counts(static_cast<int>(header.height), static_cast<int>(header.width));
+  std::vector<png_bytep> rows(static_cast<std::size_t>(counts.rows));
+  for (int r = 0; r < counts.rows; ++r) rows[static_cast<std::size_t>(r)] = counts.ptr<png_byte>(r);
+
+  PngSource source{bytes};
+  PngReadStruct reader;
+  reader.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &source, OnPngError, OnPngWarning);
+  if (reader.png) reader.info = png_create_info_struct(reader.png);
+  if (!reader.info) return DepthError(ErrorCode::kInternal, "cannot create a PNG reader");
+  png_set_read_fn(reader.png, &source, ReadFromMemory);
+  if (!ReadRows(reader.png, reader.info, header, rows.data())) {
+    return DepthError(ErrorCode::kInvalidArgument,
+                      "corrupt or truncated PNG: " + detail::Printable(source.error, 120));
   }
-  return DepthError(ErrorCode::kInvalidArgument, "corrupt or truncated PNG data");
+  return counts;
 }
 
 }  // namespace
@@ -108,16 +167,10 @@ core::Result<cv::Mat1f> DecodePng16(std::string_view bytes, const DepthDecodeOpt
   if (!header) return header.error();
   if (auto error = CheckHeader(header.value(), options.max_pixels)) return *error;
 
-  const auto decoded = DecodeWithOpenCv(bytes);
-  if (!decoded) return decoded.error();
-  const cv::Mat& counts = decoded.value();
-  if (counts.type() != CV_16UC1 || counts.cols != header.value().width ||
-      counts.rows != header.value().height) {
-    return DepthError(ErrorCode::kInvalidArgument,
-                      "corrupt PNG: decoded pixels do not match the IHDR chunk");
-  }
+  const auto counts = DecodeCounts(bytes, header.value());
+  if (!counts) return counts.error();
   cv::Mat1f depth;
-  counts.convertTo(depth, CV_32F, options.png_unit_m);
+  counts.value().convertTo(depth, CV_32F, options.png_unit_m);
   return depth;
 }
 
@@ -127,8 +180,8 @@ std::string EncodePng(const cv::Mat& image) {
   const int type = image.type();
   if (image.empty() || (type != CV_8UC1 && type != CV_8UC3 && type != CV_16UC1)) {
     throw std::invalid_argument("EncodePng: expected a non-empty 8UC1, 8UC3 or 16UC1 image, got " +
-                                cv::typeToString(type) + " of " + std::to_string(image.cols) +
-                                "x" + std::to_string(image.rows));
+                                cv::typeToString(type) + " of " + std::to_string(image.cols) + "x" +
+                                std::to_string(image.rows));
   }
   std::vector<uchar> buffer;
   if (!cv::imencode(".png", image, buffer)) {

@@ -40,8 +40,8 @@ tmsize_t ReadProc(thandle_t handle, void* buffer, tmsize_t size) {
   MemoryFile& file = FileOf(handle);
   const std::string_view data = file.Data();
   if (size <= 0 || file.pos >= data.size()) return 0;
-  const std::size_t count = std::min<std::uint64_t>(static_cast<std::uint64_t>(size),
-                                                    data.size() - file.pos);
+  const std::size_t count =
+      std::min<std::uint64_t>(static_cast<std::uint64_t>(size), data.size() - file.pos);
   std::memcpy(buffer, data.data() + file.pos, count);
   file.pos += count;
   return static_cast<tmsize_t>(count);
@@ -109,11 +109,16 @@ TiffPtr OpenMemory(MemoryFile& file, const char* mode, std::string& first_error,
 
 std::string SampleFormatName(int format) {
   switch (format) {
-    case SAMPLEFORMAT_UINT: return "unsigned integer";
-    case SAMPLEFORMAT_INT: return "signed integer";
-    case SAMPLEFORMAT_IEEEFP: return "float";
-    case SAMPLEFORMAT_VOID: return "untyped";
-    default: return "sample format " + std::to_string(format);
+    case SAMPLEFORMAT_UINT:
+      return "unsigned integer";
+    case SAMPLEFORMAT_INT:
+      return "signed integer";
+    case SAMPLEFORMAT_IEEEFP:
+      return "float";
+    case SAMPLEFORMAT_VOID:
+      return "untyped";
+    default:
+      return "sample format " + std::to_string(format);
   }
 }
 
@@ -147,7 +152,8 @@ std::optional<core::Error> ReadStrips(TIFF* tif, cv::Mat1f& image, const std::st
     const tmsize_t wanted = row_bytes * rows;
     const tmsize_t got = TIFFReadEncodedStrip(tif, TIFFComputeStrip(tif, row, 0),
                                               image[static_cast<int>(row)], wanted);
-    if (got != wanted) return Corrupt("cannot read the strip at row " + std::to_string(row), errors);
+    if (got != wanted)
+      return Corrupt("cannot read the strip at row " + std::to_string(row), errors);
   }
   return std::nullopt;
 }
@@ -169,8 +175,8 @@ std::optional<core::Error> ReadTiles(TIFF* tif, cv::Mat1f& image, std::int64_t m
       const tmsize_t got = TIFFReadTile(tif, tile.data(), static_cast<std::uint32_t>(x),
                                         static_cast<std::uint32_t>(y), 0, 0);
       if (got != static_cast<tmsize_t>(tile_pixels * 4)) {
-        return Corrupt("cannot read the tile at x=" + std::to_string(x) + " y=" +
-                           std::to_string(y), errors);
+        return Corrupt("cannot read the tile at x=" + std::to_string(x) + " y=" + std::to_string(y),
+                       errors);
       }
       const cv::Rect roi(static_cast<int>(x), static_cast<int>(y),
                          static_cast<int>(std::min<std::int64_t>(tile_w, image.cols - x)),
