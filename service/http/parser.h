@@ -59,10 +59,12 @@ class RequestParser {
   /// Result of looking for the next CRLF-terminated line.
   enum class LineStatus { kLine, kPartial, kBareLf };
 
+  // Each Step*() consumes what it can of the current phase; it returns true when it made progress
+  // (call again), false when it needs more bytes or the state left kNeedMore.
   State Advance();
-  State Fail(int status, std::string message);
+  bool Fail(int status, std::string message);  ///< enters kError; always returns false
   LineStatus NextLine(std::string_view* line);
-  void ConsumeLine(std::string_view line);
+  void ConsumeLine(std::string_view line, std::size_t* counter);
   bool StepRequestLine();
   bool StepHeaderLine();
   bool StepHeadersDone();
@@ -72,8 +74,11 @@ class RequestParser {
   bool StepChunkDataEnd();
   bool StepTrailerLine();
   bool CheckRequestLineLimits(std::string_view line, std::size_t line_bytes);
+  bool CheckFieldLineLimit(std::size_t line_bytes);
   bool ParseRequestLine(std::string_view line);
-  void Complete();
+  bool ParseTarget(std::string_view target);
+  bool ParseFieldLine(std::string_view line, Headers* out);
+  bool Complete();
 
   std::string buffer_;            ///< received bytes; [pos_, end) not yet consumed
   std::size_t pos_ = 0;           ///< first unconsumed byte of buffer_

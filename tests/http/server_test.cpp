@@ -1,0 +1,616 @@
+#include "service/http/server.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <future>
+#include <mutex>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace softgrasp::http {
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+// ---- a minimal blocking client over plain POSIX sockets ----
+
+struct ClientResponse {
+  int status = 0;
+  Headers headers;
+  std::string body;
+  std::optional<std::string_view> header(std::string_view name) const {
+    return FindHeader(headers, name);
+  }
+  nlohmann::json json() const { return nlohmann::json::parse(body); }
+};
+
+class Client {
+ public:
+  explicit Client(uint16_t port) {
+    fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd_ < 0) throw std::runtime_error("socket");
+    timeval tv{5, 0};  // no test ever blocks forever on a read
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(port);
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
+      ::close(fd_);
+      throw std::runtime_error("connect failed");
+    }
+  }
+  ~Client() { Close(); }
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  int fd() const { return fd_; }
+  void Close() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+  }
+
+  void Send(std::string_view bytes) {
+    while (!bytes.empty()) {
+      const ssize_t n = ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+      if (n <= 0) throw std::runtime_error("send failed");
+      bytes.remove_prefix(static_cast<std::size_t>(n));
+    }
+  }
+
+  /// Reads one response; the body is read by Content-Length unless `head`. nullopt on EOF/timeout.
+  std::optional<ClientResponse> Read(bool head = false) {
+    std::size_t end;
+    while ((end = buffer_.find("\r\n\r\n")) == std::string::npos) {
+      if (!Fill()) return std::nullopt;
+    }
+    ClientResponse response;
+    const std::string head_block = buffer_.substr(0, end);
+    buffer_.erase(0, end + 4);
+    std::size_t line_end = head_block.find("\r\n");
+    const std::string status_line = head_block.substr(0, line_end);
+    response.status = std::stoi(status_line.substr(9, 3));
+    while (line_end != std::string::npos) {
+      const std::size_t start = line_end + 2;
+      line_end = head_block.find("\r\n", start);
+      const std::string line = head_block.substr(start, line_end - start);
+      const std::size_t colon = line.find(':');
+      response.headers.emplace_back(line.substr(0, colon), line.substr(colon + 2));
+    }
+    std::size_t length = 0;
+    if (const auto cl = response.header("Content-Length"); cl && !head) {
+      length = std::stoul(std::string(*cl));
+    }
+    while (buffer_.size() < length) {
+      if (!Fill()) return std::nullopt;
+    }
+    response.body = buffer_.substr(0, length);
+    buffer_.erase(0, length);
+    return response;
+  }
+
+  /// Reads everything until the server closes (true) or the timeout (false).
+  bool ReadUntilClosed(std::string* rest = nullptr) {
+    while (Fill()) {
+    }
+    if (rest != nullptr) *rest = buffer_;
+    return closed_;
+  }
+
+  std::string& buffer() { return buffer_; }
+
+ private:
+  bool Fill() {
+    char chunk[4096];
+    const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
+    if (n <= 0) {
+      closed_ = n == 0 || errno == ECONNRESET;
+      return false;
+    }
+    buffer_.append(chunk, static_cast<std::size_t>(n));
+    return true;
+  }
+
+  int fd_ = -1;
+  std::string buffer_;
+  bool closed_ = false;
+};
+
+bool AllDigits(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+/// Splits an access-log line "<ISO time> <id> <method> <path> <status> <bytes> <ms>ms" into its
+/// seven fields (the last without "ms"); nullopt when the line does not have that shape.
+std::optional<std::vector<std::string>> ParseLogLine(const std::string& line) {
+  std::vector<std::string> fields;
+  for (std::size_t start = 0; start <= line.size();) {
+    const std::size_t end = std::min(line.find(' ', start), line.size());
+    fields.push_back(line.substr(start, end - start));
+    start = end + 1;
+  }
+  if (fields.size() != 7) return std::nullopt;
+  const std::string shape = "dddd-dd-ddTdd:dd:dd.dddZ";
+  const std::string& time = fields[0];
+  if (time.size() != shape.size()) return std::nullopt;
+  for (std::size_t i = 0; i < shape.size(); ++i) {
+    const bool ok = shape[i] == 'd' ? (time[i] >= '0' && time[i] <= '9') : time[i] == shape[i];
+    if (!ok) return std::nullopt;
+  }
+  std::string& ms = fields[6];
+  if (ms.size() < 3 || ms.substr(ms.size() - 2) != "ms") return std::nullopt;
+  ms.resize(ms.size() - 2);
+  if (fields[4].size() != 3 || !AllDigits(fields[4]) || !AllDigits(fields[5]) || !AllDigits(ms)) {
+    return std::nullopt;
+  }
+  return fields;
+}
+
+std::string Get(const std::string& path, const std::string& extra_headers = "") {
+  return "GET " + path + " HTTP/1.1\r\nHost: test\r\n" + extra_headers + "\r\n";
+}
+
+/// Collects access-log lines from any thread.
+class LogSink {
+ public:
+  std::function<void(const std::string&)> Callback() {
+    return [this](const std::string& line) {
+      std::lock_guard<std::mutex> lock(mu_);
+      lines_.push_back(line);
+      cv_.notify_all();
+    };
+  }
+  /// Waits (up to 5 s) until at least `n` lines arrived; returns a copy.
+  std::vector<std::string> WaitFor(std::size_t n) {
+    std::unique_lock<std::mutex> lock(mu_);
+    cv_.wait_for(lock, 5s, [&] { return lines_.size() >= n; });
+    return lines_;
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::vector<std::string> lines_;
+};
+
+/// One-shot gate a handler can block on.
+class Gate {
+ public:
+  void Open() {
+    std::lock_guard<std::mutex> lock(mu_);
+    open_ = true;
+    cv_.notify_all();
+  }
+  void Wait() {
+    std::unique_lock<std::mutex> lock(mu_);
+    cv_.wait_for(lock, 10s, [&] { return open_; });
+  }
+  bool WaitFor(std::chrono::milliseconds timeout) {
+    std::unique_lock<std::mutex> lock(mu_);
+    return cv_.wait_for(lock, timeout, [&] { return open_; });
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool open_ = false;
+};
+
+class HttpServer : public ::testing::Test {
+ protected:
+  ServerOptions Options() {
+    ServerOptions options;
+    options.host = "127.0.0.1";
+    options.port = 0;
+    options.access_log = log_.Callback();
+    return options;
+  }
+
+  /// Echoes method and path; "/boom" throws; "/block" waits for `release_`; "/slow" sleeps.
+  Response Handle(Request& request) {
+    ++handled_;
+    if (request.path == "/boom") throw std::runtime_error("secret internals");
+    if (request.path == "/block") {
+      entered_.Open();
+      release_.Wait();
+    }
+    if (request.path == "/slow") {
+      entered_.Open();
+      std::this_thread::sleep_for(300ms);
+    }
+    if (request.path == "/echo") return Response::Bytes(200, "text/plain", request.body);
+    nlohmann::json body = {{"method", request.method}, {"path", request.path}};
+    return Response::Json(200, body.dump());
+  }
+
+  std::unique_ptr<Server> StartServer(ServerOptions options) {
+    auto server = std::make_unique<Server>(std::move(options),
+                                           [this](Request& request) { return Handle(request); });
+    server->Start();
+    EXPECT_NE(server->port(), 0);
+    return server;
+  }
+
+  LogSink log_;
+  std::atomic<int> handled_{0};
+  Gate entered_;
+  Gate release_;
+};
+
+TEST_F(HttpServer, KeepAliveServesTwoRequestsOnOneConnection) {
+  auto server = StartServer(Options());
+  Client client(server->port());
+  for (const char* path : {"/first", "/second"}) {
+    client.Send(Get(path));
+    const auto response = client.Read();
+    ASSERT_TRUE(response.has_value()) << path;
+    EXPECT_EQ(response->status, 200);
+    EXPECT_EQ(response->json()["path"], path);
+    EXPECT_EQ(response->header("Connection"), "keep-alive");
+    EXPECT_EQ(response->header("Content-Length"), std::to_string(response->body.size()));
+    EXPECT_TRUE(response->header("Date").has_value());
+    EXPECT_TRUE(response->header("X-Request-Id").has_value());
+    EXPECT_EQ(response->header("Content-Type"), "application/json");
+  }
+}
+
+TEST_F(HttpServer, ConnectionCloseIsHonoured) {
+  auto server = StartServer(Options());
+  Client client(server->port());
+  client.Send(Get("/x", "Connection: close\r\n"));
+  const auto response = client.Read();
+  ASSERT_TRUE(response.has_value());
+  EXPECT_EQ(response->header("Connection"), "close");
+  EXPECT_TRUE(client.ReadUntilClosed());
+}
+
+TEST_F(HttpServer, PipelinedRequestsAreAnsweredInOrder) {
+  ServerOptions options = Options();
+  options.num_workers = 4;
+  auto server = StartServer(options);
+  Client client(server->port());
+  client.Send(Get("/slow") + Get("/b") + "POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: 3\r\n\r\nxyz" +
+              Get("/d", "Connection: close\r\n"));
+  const auto a = client.Read();
+  const auto b = client.Read();
+  const auto c = client.Read();
+  const auto d = client.Read();
+  ASSERT_TRUE(a && b && c && d);
+  EXPECT_EQ(a->json()["path"], "/slow");
+  EXPECT_EQ(b->json()["path"], "/b");
+  EXPECT_EQ(c->body, "xyz");
+  EXPECT_EQ(d->json()["path"], "/d");
+  EXPECT_TRUE(client.ReadUntilClosed());
+}
+
+TEST_F(HttpServer, HandlerExceptionIs500AndServingGoesOn) {
+  auto server = StartServer(Options());
+  Client client(server->port());
+  client.Send(Get("/boom"));
+  const auto failed = client.Read();
+  ASSERT_TRUE(failed.has_value());
+  EXPECT_EQ(failed->status, 500);
+  EXPECT_EQ(failed->json()["error"]["code"], "internal");
+  EXPECT_EQ(failed->body.find("secret"), std::string::npos);
+  client.Send(Get("/after"));
+  const auto after = client.Read();
+  ASSERT_TRUE(after.has_value());
+  EXPECT_EQ(after->status, 200);
+  Client other(server->port());
+  other.Send(Get("/other"));
+  ASSERT_TRUE(other.Read().has_value());
+}
+
+TEST_F(HttpServer, SlowClientGets408AndIsClosed) {
+  ServerOptions options = Options();
+  options.read_timeout_ms = 200;
+  auto server = StartServer(options);
+  Client client(server->port());
+  const auto start = Clock::now();
+  client.Send("GET /slowloris HTTP/1.1\r\nHost: t\r\n");  // never finished
+  const auto response = client.Read();
+  ASSERT_TRUE(response.has_value());
+  EXPECT_GE(Clock::now() - start, 150ms);
+  EXPECT_EQ(response->status, 408);
+  EXPECT_EQ(response->json()["error"]["code"], "request_timeout");
+  EXPECT_EQ(response->header("Connection"), "close");
+  EXPECT_TRUE(client.ReadUntilClosed());
+  const auto lines = log_.WaitFor(1);
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_NE(lines[0].find(" - - 408 "), std::string::npos) << lines[0];
+}
+
+TEST_F(HttpServer, IdleKeepAliveConnectionIsClosedSilently) {
+  ServerOptions options = Options();
+  options.keep_alive_timeout_ms = 150;
+  auto server = StartServer(options);
+  Client client(server->port());
+  client.Send(Get("/once"));
+  ASSERT_TRUE(client.Read().has_value());
+  const auto start = Clock::now();
+  std::string rest;
+  EXPECT_TRUE(client.ReadUntilClosed(&rest));
+  EXPECT_TRUE(rest.empty()) << rest;
+  EXPECT_GE(Clock::now() - start, 100ms);
+  EXPECT_EQ(log_.WaitFor(1).size(), 1u);  // no line for the silent close
+}
+
+TEST_F(HttpServer, FullQueueIs503WithRetryAfterWithoutRunningTheHandler) {
+  ServerOptions options = Options();
+  options.num_workers = 1;
+  options.queue_capacity = 1;
+  options.retry_after_s = 7;
+  auto server = StartServer(options);
+
+  Client busy(server->port());
+  busy.Send(Get("/block"));
+  ASSERT_TRUE(entered_.WaitFor(5s));  // the only worker is now blocked
+
+  // One of these is queued, the other finds the queue full.
+  Client b(server->port());
+  Client c(server->port());
+  b.Send(Get("/queued"));
+  c.Send(Get("/queued"));
+  pollfd fds[2] = {{b.fd(), POLLIN, 0}, {c.fd(), POLLIN, 0}};
+  ASSERT_EQ(::poll(fds, 2, 5000), 1);  // exactly one answer while the worker is blocked
+  Client& rejected = (fds[0].revents != 0) ? b : c;
+  Client& queued = (fds[0].revents != 0) ? c : b;
+  const auto unavailable = rejected.Read();
+  ASSERT_TRUE(unavailable.has_value());
+  EXPECT_EQ(unavailable->status, 503);
+  EXPECT_EQ(unavailable->header("Retry-After"), "7");
+  EXPECT_EQ(unavailable->json()["error"]["code"], "service_unavailable");
+  EXPECT_TRUE(rejected.ReadUntilClosed());
+
+  release_.Open();
+  const auto first = busy.Read();
+  const auto second = queued.Read();
+  ASSERT_TRUE(first && second);
+  EXPECT_EQ(first->status, 200);
+  EXPECT_EQ(second->status, 200);
+  EXPECT_EQ(second->json()["path"], "/queued");
+  EXPECT_EQ(log_.WaitFor(3).size(), 3u);
+  EXPECT_EQ(handled_.load(), 2);  // the rejected request never reached the handler
+}
+
+TEST_F(HttpServer, ConnectionsOverTheCapGet503) {
+  ServerOptions options = Options();
+  options.max_connections = 1;
+  auto server = StartServer(options);
+  auto first = std::make_unique<Client>(server->port());
+  first->Send(Get("/hold"));
+  ASSERT_TRUE(first->Read().has_value());  // accepted and counted
+
+  Client second(server->port());
+  const auto response = second.Read();
+  ASSERT_TRUE(response.has_value());
+  EXPECT_EQ(response->status, 503);
+  EXPECT_EQ(response->header("Retry-After"), "1");
+  EXPECT_TRUE(second.ReadUntilClosed());
+
+  first.reset();  // frees the slot
+  std::optional<ClientResponse> later;
+  for (int attempt = 0; attempt < 50 && !(later && later->status == 200); ++attempt) {
+    std::this_thread::sleep_for(20ms);
+    Client third(server->port());
+    third.Send(Get("/later"));
+    later = third.Read();
+  }
+  ASSERT_TRUE(later.has_value());
+  EXPECT_EQ(later->status, 200);
+}
+
+TEST_F(HttpServer, StopLetsAnInFlightRequestFinish) {
+  auto server = StartServer(Options());
+  Client idle(server->port());
+  idle.Send(Get("/warm-up"));
+  ASSERT_TRUE(idle.Read().has_value());
+
+  const uint16_t port = server->port();
+  auto in_flight = std::async(std::launch::async, [port] {
+    Client client(port);
+    client.Send(Get("/slow"));
+    auto response = client.Read();
+    client.ReadUntilClosed();
+    return response;
+  });
+  ASSERT_TRUE(entered_.WaitFor(5s));
+  server->Stop();  // returns once the slow answer went out
+
+  const auto response = in_flight.get();
+  ASSERT_TRUE(response.has_value());
+  EXPECT_EQ(response->status, 200);
+  EXPECT_EQ(response->header("Connection"), "close");
+  EXPECT_TRUE(idle.ReadUntilClosed());
+  EXPECT_THROW(Client refused(port), std::runtime_error);  // no longer listening
+  server->Stop();                                           // idempotent
+}
+
+TEST_F(HttpServer, AccessLogHasOneLinePerAnswerAndNoHeaderValues) {
+  auto server = StartServer(Options());
+  Client client(server->port());
+  client.Send(Get("/v1/a%20b?token=secret-query",
+                  "X-Request-Id: req-42\r\nAuthorization: Bearer secret-token\r\n"));
+  const auto response = client.Read();
+  ASSERT_TRUE(response.has_value());
+  EXPECT_EQ(response->header("X-Request-Id"), "req-42");
+  client.Send("BROKEN\r\n\r\n");
+  ASSERT_TRUE(client.Read().has_value());
+
+  const auto lines = log_.WaitFor(2);
+  ASSERT_EQ(lines.size(), 2u);
+  const auto first = ParseLogLine(lines[0]);
+  ASSERT_TRUE(first.has_value()) << lines[0];
+  EXPECT_EQ((*first)[1], "req-42");
+  EXPECT_EQ((*first)[2], "GET");
+  EXPECT_EQ((*first)[3], "/v1/a%20b");  // decoded path, re-escaped; no query string
+  EXPECT_EQ((*first)[4], "200");
+  EXPECT_EQ((*first)[5], std::to_string(response->body.size()));
+  const auto second = ParseLogLine(lines[1]);
+  ASSERT_TRUE(second.has_value()) << lines[1];
+  EXPECT_EQ((*second)[2], "-");
+  EXPECT_EQ((*second)[3], "-");
+  EXPECT_EQ((*second)[4], "400");
+  for (const auto& line : lines) {
+    EXPECT_EQ(line.find("secret"), std::string::npos) << line;
+  }
+}
+
+TEST_F(HttpServer, RequestIdIsGeneratedWhenMissingOrUnfit) {
+  auto server = StartServer(Options());
+  Client client(server->port());
+  client.Send(Get("/a") + Get("/b", "X-Request-Id: " + std::string(200, 'x') + "\r\n"));
+  const auto a = client.Read();
+  const auto b = client.Read();
+  ASSERT_TRUE(a && b);
+  const std::string id_a(*a->header("X-Request-Id"));
+  const std::string id_b(*b->header("X-Request-Id"));
+  EXPECT_FALSE(id_a.empty());
+  EXPECT_NE(id_a, id_b);
+  EXPECT_LT(id_b.size(), 64u);
+}
+
+TEST_F(HttpServer, HeadGetsHeadersWithoutBody) {
+  auto server = StartServer(Options());
+  Client client(server->port());
+  client.Send("HEAD /thing HTTP/1.1\r\nHost: t\r\n\r\n");
+  const auto head = client.Read(/*head=*/true);
+  ASSERT_TRUE(head.has_value());
+  EXPECT_EQ(head->status, 200);
+  EXPECT_NE(head->header("Content-Length"), "0");  // the length a GET would have
+  // The next response must start right away: no stray body bytes in between.
+  client.Send(Get("/next"));
+  const auto next = client.Read();
+  ASSERT_TRUE(next.has_value());
+  EXPECT_EQ(next->json()["path"], "/next");
+  const auto lines = log_.WaitFor(2);
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_NE(lines[0].find(" HEAD /thing 200 0 "), std::string::npos) << lines[0];
+}
+
+TEST_F(HttpServer, ExpectContinueGets100First) {
+  auto server = StartServer(Options());
+  Client client(server->port());
+  client.Send("POST /echo HTTP/1.1\r\nHost: t\r\nExpect: 100-continue\r\nContent-Length: 5\r\n\r\n");
+  const auto interim = client.Read();
+  ASSERT_TRUE(interim.has_value());
+  EXPECT_EQ(interim->status, 100);
+  client.Send("hello");
+  const auto response = client.Read();
+  ASSERT_TRUE(response.has_value());
+  EXPECT_EQ(response->status, 200);
+  EXPECT_EQ(response->body, "hello");
+}
+
+TEST_F(HttpServer, ProtocolErrorsAreJsonAndClose) {
+  ServerOptions options = Options();
+  options.limits.max_body_bytes = 100;
+  auto server = StartServer(options);
+  {
+    Client client(server->port());
+    client.Send("POST /x HTTP/1.1\r\nHost: t\r\nContent-Length: 1000\r\n\r\n");  // body not sent
+    const auto response = client.Read();
+    ASSERT_TRUE(response.has_value());
+    EXPECT_EQ(response->status, 413);
+    EXPECT_EQ(response->json()["error"]["code"], "payload_too_large");
+    EXPECT_TRUE(client.ReadUntilClosed());
+  }
+  {
+    Client client(server->port());
+    client.Send("GET / HTTP/2.0\r\nHost: t\r\n\r\n" + Get("/never"));
+    const auto response = client.Read();
+    ASSERT_TRUE(response.has_value());
+    EXPECT_EQ(response->status, 505);
+    std::string rest;
+    EXPECT_TRUE(client.ReadUntilClosed(&rest));
+    EXPECT_TRUE(rest.empty());  // the pipelined request is not answered
+  }
+}
+
+TEST_F(HttpServer, OversizedUploadGets413WhileTheClientIsStillSending) {
+  ServerOptions options = Options();
+  options.limits.max_body_bytes = 1000;
+  auto server = StartServer(options);
+  Client client(server->port());
+  const std::string body(4 << 20, 'x');
+  client.Send("POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: " + std::to_string(body.size()) +
+              "\r\n\r\n");
+  auto uploader = std::async(std::launch::async, [&] {
+    std::string_view rest = body;
+    while (!rest.empty()) {  // stops when the server closes
+      const ssize_t n = ::send(client.fd(), rest.data(), rest.size(), MSG_NOSIGNAL);
+      if (n <= 0) return;
+      rest.remove_prefix(static_cast<std::size_t>(n));
+    }
+  });
+  const auto response = client.Read();
+  uploader.wait();
+  ASSERT_TRUE(response.has_value());
+  EXPECT_EQ(response->status, 413);
+  EXPECT_EQ(handled_.load(), 0);
+}
+
+TEST_F(HttpServer, StartFailsWhenThePortIsTaken) {
+  auto server = StartServer(Options());
+  ServerOptions options = Options();
+  options.port = server->port();
+  Server second(options, [](Request&) { return Response{}; });
+  EXPECT_THROW(second.Start(), std::runtime_error);
+  second.Stop();  // harmless
+}
+
+TEST_F(HttpServer, ListensOnIpv6) {
+  ServerOptions options = Options();
+  options.host = "::1";
+  Server server(options, [](Request&) { return Response::Json(200, "{}"); });
+  try {
+    server.Start();
+  } catch (const std::runtime_error& e) {
+    GTEST_SKIP() << "no IPv6 loopback here: " << e.what();
+  }
+  const int fd = ::socket(AF_INET6, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in6 addr{};
+  addr.sin6_family = AF_INET6;
+  addr.sin6_port = htons(server.port());
+  addr.sin6_addr = in6addr_loopback;
+  ASSERT_EQ(::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);
+  const std::string request = Get("/v6", "Connection: close\r\n");
+  ASSERT_EQ(::send(fd, request.data(), request.size(), MSG_NOSIGNAL),
+            static_cast<ssize_t>(request.size()));
+  char buf[512];
+  const ssize_t n = ::recv(fd, buf, sizeof buf, MSG_WAITALL);
+  ::close(fd);
+  ASSERT_GT(n, 12);
+  EXPECT_EQ(std::string(buf, 12), "HTTP/1.1 200");
+}
+
+TEST_F(HttpServer, DestructorStopsARunningServer) {
+  uint16_t port = 0;
+  {
+    auto server = StartServer(Options());
+    port = server->port();
+    Client client(port);
+    client.Send(Get("/x"));
+    ASSERT_TRUE(client.Read().has_value());
+  }
+  EXPECT_THROW(Client refused(port), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace softgrasp::http
