@@ -33,3 +33,10 @@ function(softgrasp_add_test)
   gtest_discover_tests(${T_NAME} PROPERTIES TIMEOUT ${T_TIMEOUT} LABELS "${T_LABELS}"
                        DISCOVERY_TIMEOUT 60)
 endfunction()
+
+# Fuzzer builds instrument every library for coverage feedback; only the *_fuzzer executables
+# link libFuzzer's main (tests/fuzz/CMakeLists.txt). Needs clang: CC=clang CXX=clang++.
+if(SOFTGRASP_BUILD_FUZZERS)
+  target_compile_options(softgrasp_options INTERFACE -fsanitize=fuzzer-no-link,address,undefined)
+  target_link_options(softgrasp_options INTERFACE -fsanitize=address,undefined)
+endif()
