@@ -1,5 +1,6 @@
 #include "service/rest/api.h"
 
+#include <array>
 #include <chrono>
 
 #include <nlohmann/json.hpp>
@@ -9,6 +10,7 @@
 #include "service/io/depth_codec.h"
 #include "service/io/overlay.h"
 #include "service/rest/build_info.h"
+#include "service/rest/fractal_request.h"
 #include "service/rest/grasp_request.h"
 
 namespace softgrasp::rest {
@@ -72,10 +74,13 @@ http::Response Info(const ServiceConfig& config) {
         {"max_connections", config.server.max_connections},
         {"queue_capacity", config.server.queue_capacity},
         {"workers", config.server.num_workers},
-        {"read_timeout_ms", config.server.read_timeout_ms}}},
+        {"read_timeout_ms", config.server.read_timeout_ms},
+        {"max_fractal_points", config.max_fractal_points},
+        {"max_fractal_attempts", config.max_fractal_attempts}}},
       {"models", json::array()},
       {"strategies", {"fge"}},
       {"depth_formats", {"npy", "png16", "tiff"}},
+      {"mesh_formats", {"obj", "ply_ascii", "ply_binary", "stl_ascii", "stl_binary"}},
       {"defaults",
        {{"camera", CameraToJson(config.default_camera)},
         {"gripper", GripperToJson(config.default_gripper)},
@@ -138,6 +143,71 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config)
   return http::Response::Json(200, body.dump());
 }
 
+const char* MeshContentType(mesh::MeshFormat format) {
+  switch (format) {
+    case mesh::MeshFormat::kObj: return "model/obj";
+    case mesh::MeshFormat::kPlyAscii:
+    case mesh::MeshFormat::kPlyBinary: return "application/x-ply";
+    case mesh::MeshFormat::kStlAscii:
+    case mesh::MeshFormat::kStlBinary: return "model/stl";
+  }
+  return "application/octet-stream";
+}
+
+json FractalStats(const mesh::FractalModel& m, const FractalRequest& in, double milliseconds) {
+  const std::array<double, 3> size{m.bbox_max_m[0] - m.bbox_min_m[0],
+                                   m.bbox_max_m[1] - m.bbox_min_m[1],
+                                   m.bbox_max_m[2] - m.bbox_min_m[2]};
+  return {
+      {"seed", in.params.seed},
+      {"vertices", m.mesh.vertices.size()},
+      {"faces", m.mesh.faces.size()},
+      {"volume_m3", m.volume_m3},
+      {"bbox", {{"min_m", m.bbox_min_m}, {"max_m", m.bbox_max_m}, {"size_m", size}}},
+      {"maps", m.ifs.maps.size()},
+      {"points", m.num_points},
+      {"sigma", in.params.sigma},
+      {"variances", m.variances},
+      {"alpha_requested", m.alpha_requested},
+      {"alpha_used", m.alpha_used},
+      {"alpha_raised", m.alpha_raised},
+      {"pieces_dropped", m.pieces_dropped},
+      {"attempts", m.attempts},
+      {"rejections",
+       {{"expanding", m.rejections.expanding},
+        {"diverged", m.rejections.diverged},
+        {"low_variance", m.rejections.low_variance},
+        {"no_solid", m.rejections.no_solid},
+        {"float_collision", m.rejections.float_collision}}},
+      {"milliseconds", milliseconds},
+  };
+}
+
+http::Response Fractals(const http::Request& request, const ServiceConfig& config) {
+  const auto start = Clock::now();
+  const std::string content_type(request.header("Content-Type").value_or(""));
+  if (!request.body.empty() && content_type.rfind("application/json", 0) != 0) {
+    return ErrorToResponse(core::MakeError(core::ErrorCode::kUnsupportedMediaType,
+                                           "send the parameters as application/json",
+                                           "Content-Type"));
+  }
+  auto parsed = ParseFractalRequest(request.body, config);
+  if (!parsed.ok()) return ErrorToResponse(parsed.error());
+  const FractalRequest& in = parsed.value();
+  auto model = mesh::GenerateFractal(in.params);
+  if (!model.ok()) return ErrorToResponse(model.error());
+  const mesh::FractalModel& m = model.value();
+  if (in.stats_only) {
+    return http::Response::Json(200, FractalStats(m, in, MillisecondsSince(start)).dump());
+  }
+  http::Response file = http::Response::Bytes(200, MeshContentType(in.format),
+                                              mesh::WriteMesh(m.mesh, in.format));
+  file.set_header("Content-Disposition", "attachment; filename=\"" + FractalFileName(in) + "\"");
+  file.set_header("X-Fractal-Alpha-Used", json(m.alpha_used).dump());
+  file.set_header("X-Fractal-Attempts", std::to_string(m.attempts));
+  return file;
+}
+
 }  // namespace
 
 int HttpStatusFor(core::ErrorCode code) {
@@ -163,6 +233,8 @@ http::Router BuildRouter(const ServiceConfig& config) {
   router.Add("GET", "/v1/info", [config](const http::Request&) { return Info(config); });
   router.Add("POST", "/v1/grasps",
              [config](const http::Request& r) { return Grasps(r, config); });
+  router.Add("POST", "/v1/fractals",
+             [config](const http::Request& r) { return Fractals(r, config); });
   return router;
 }
 

@@ -90,6 +90,9 @@ std::map<std::string, std::map<std::string, Setter>> Sections(ServiceConfig& c) 
       {"depth",
        {{"png_unit_m", Number(&c.png_unit_m, 1e-6, 1.0)},
         {"max_image_pixels", Number(&c.max_image_pixels, 1, 1e10)}}},
+      {"fractals",
+       {{"max_points", Number(&c.max_fractal_points, 100, 1e6)},
+        {"max_attempts", Number(&c.max_fractal_attempts, 1, 1e7)}}},
   };
 }
 
@@ -270,6 +273,7 @@ std::string ConfigToJson(const ServiceConfig& c) {
         {"top_k", f.top_k},
         {"nms_radius_px", f.nms_radius_px}}},
       {"depth", {{"png_unit_m", c.png_unit_m}, {"max_image_pixels", c.max_image_pixels}}},
+      {"fractals", {{"max_points", c.max_fractal_points}, {"max_attempts", c.max_fractal_attempts}}},
   };
   return j.dump();
 }

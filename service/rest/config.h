@@ -21,6 +21,8 @@ struct ServiceConfig {
   core::FgeParams fge;
   double png_unit_m = 0.001;             ///< metres per 16-bit PNG count unless the request says
   long long max_image_pixels = 4096LL * 4096;  ///< decompression-bomb guard, before decoding
+  int max_fractal_points = 200'000;      ///< POST /v1/fractals "points" cap (400 above it)
+  int max_fractal_attempts = 20'000;     ///< IFS draws before a fractal request gives up (422)
 };
 
 /// Applies a JSON config document (see docs/configuration.md) onto `config`.

@@ -1,0 +1,808 @@
+// Fast FGE: per angle, rotate a 16-bit "level" image so the closing axis is the x axis; per
+// slice, threshold it, build integral images and read the templates as axis-aligned box sums
+// around each object; blur the candidates on coarse cells and read their peaks.
+// See docs/fge.md, section "Fast implementation".
+#include "service/core/fge_fast.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <utility>
+
+#include <opencv2/imgproc.hpp>
+
+namespace softgrasp::core::fge_detail {
+namespace {
+
+// A level word holds in bits 0-6 how many threshold levels the (pooled) height exceeds, in bit 7
+// whether the surface may be contacted (part of a free object) and in bits 8-15 how many levels
+// the seam level exceeds.
+constexpr std::uint16_t kGraspableBit = 0x80;
+constexpr std::uint16_t kLevelMask = 0x7f;
+constexpr std::uint16_t kLowByte = 0xff;
+constexpr std::uint16_t kSeamMask = 0xff00;
+constexpr int kSeamShift = 8;
+constexpr std::uint16_t kOutsideLevel = 0x7f;  // outside the image: above every level, no contact
+constexpr int kMaxLevels = kOutsideLevel - 1;
+constexpr float kLevelMergeM = 1e-7f;         // levels closer than this are one level
+// The graspability blur runs on cells of d x d work pixels, d in {1, 2, 4} as large as keeps
+// sigma >= kMinBlurSigmaCells cells.
+constexpr double kMinBlurSigmaCells = 2.5;
+constexpr int kMaxBlurDownscale = 4;
+constexpr double kHalfPi = 1.5707963267948966;
+
+int WorkScale(const Plane& floor, const Camera& camera, const Gripper& gripper) {
+  const GripperPx at_floor = GripperAtScale(gripper, PxPerMetre(floor, camera, 0.0));
+  const int scale = static_cast<int>(at_floor.finger_thickness_px / kMinFingerThicknessWorkPx);
+  return std::clamp(scale, 1, kMaxWorkScale);
+}
+
+// dst[c] = max(dst[c], max of src[c s .. c s + s - 1]) for the `cols` full blocks of a row.
+template <class T>
+void PoolRow(const T* __restrict src, T* __restrict dst, int cols, int scale) {
+  if (scale == 2) {  // the common case, written to auto-vectorise
+    for (int c = 0; c < cols; ++c) dst[c] = std::max(dst[c], std::max(src[2 * c], src[2 * c + 1]));
+    return;
+  }
+  for (int c = 0; c < cols; ++c) {
+    for (int k = 0; k < scale; ++k) dst[c] = std::max(dst[c], src[c * scale + k]);
+  }
+}
+
+// Block maximum: work pixel (r, c) holds the maximum of image pixels [r s, r s + s) x [c s,
+// c s + s) after growing the image by `grow_px` (3x3 dilations).
+template <class T>
+cv::Mat_<T> PoolMax(const cv::Mat_<T>& image, int scale, int grow_px, T lowest) {
+  cv::Mat_<T> grown;  // a new buffer: dilating into `image`'s would change the caller's data
+  if (grow_px > 0) {
+    cv::dilate(image, grown, cv::Mat(), cv::Point(-1, -1), grow_px, cv::BORDER_CONSTANT,
+               cv::Scalar(lowest));
+  } else {
+    grown = image;
+  }
+  if (scale == 1) return grown;
+  cv::Mat_<T> pooled((image.rows + scale - 1) / scale, (image.cols + scale - 1) / scale, lowest);
+  const int full_cols = image.cols / scale;
+  for (int v = 0; v < image.rows; ++v) {
+    const T* src = grown.template ptr<T>(v);
+    T* dst = pooled.template ptr<T>(v / scale);
+    PoolRow(src, dst, full_cols, scale);
+    for (int u = full_cols * scale; u < image.cols; ++u) {  // partial last block
+      dst[full_cols] = std::max(dst[full_cols], src[u]);
+    }
+  }
+  return pooled;
+}
+
+// Growing heights by one image pixel before pooling keeps the fast path conservative: anything
+// that collides at full resolution also collides at work resolution, even after the
+// nearest-neighbour rotation (which may shift a boundary by half a work pixel).
+cv::Mat1f ConservativePool(const cv::Mat1f& image, int scale) {
+  return PoolMax<float>(image, scale, 1, -std::numeric_limits<float>::infinity());
+}
+
+// Sorted, de-duplicated heights at which the fast path thresholds (contact, tip and palm levels).
+std::vector<float> CollectLevels(const std::vector<Slice>& slices) {
+  std::vector<float> levels;
+  for (const Slice& s : slices) {
+    levels.push_back(static_cast<float>(s.contact_height_m));
+    levels.push_back(static_cast<float>(s.tip_height_m));
+    levels.push_back(static_cast<float>(s.palm_height_m));
+  }
+  std::sort(levels.begin(), levels.end());
+  levels.erase(std::unique(levels.begin(), levels.end(),
+                           [](float a, float b) { return b - a < kLevelMergeM; }),
+               levels.end());
+  CV_Assert(static_cast<int>(levels.size()) <= kMaxLevels);
+  return levels;
+}
+
+int LevelIndex(const std::vector<float>& levels, double height_m) {
+  const auto h = static_cast<float>(height_m);
+  const auto it = std::min_element(levels.begin(), levels.end(), [h](float a, float b) {
+    return std::abs(a - h) < std::abs(b - h);
+  });
+  return static_cast<int>(it - levels.begin());
+}
+
+void CountAbove(const float* __restrict src, float level, std::uint8_t* __restrict count, int n) {
+  for (int i = 0; i < n; ++i) count[i] = static_cast<std::uint8_t>(count[i] + (src[i] > level));
+}
+
+// Number of levels each value lies strictly above (value > levels[j]  <=>  result > j), plus
+// kGraspableBit where `graspable` is set (if given).
+cv::Mat1b LevelImage(const cv::Mat1f& values, const std::vector<float>& levels,
+                     const cv::Mat1b& graspable = {}) {
+  cv::Mat1b out = cv::Mat1b::zeros(values.size());
+  for (int v = 0; v < values.rows; ++v) {
+    std::uint8_t* dst = out.ptr<std::uint8_t>(v);
+    for (const float level : levels) CountAbove(values.ptr<float>(v), level, dst, values.cols);
+    if (graspable.empty()) continue;
+    const std::uint8_t* g = graspable.ptr<std::uint8_t>(v);
+    for (int u = 0; u < values.cols; ++u) {
+      if (g[u] && dst[u] > 0) dst[u] = static_cast<std::uint8_t>(dst[u] | kGraspableBit);
+    }
+  }
+  return out;
+}
+
+// `rect` of `image`, with `outside` where the rect leaves the image.
+cv::Mat1b CropWithBorder(const cv::Mat1b& image, const cv::Rect& rect, std::uint8_t outside) {
+  const cv::Rect inside = rect & cv::Rect(cv::Point(0, 0), image.size());
+  cv::Mat1b out;
+  cv::copyMakeBorder(image(inside), out, inside.y - rect.y, rect.br().y - inside.br().y,
+                     inside.x - rect.x, rect.br().x - inside.br().x, cv::BORDER_CONSTANT,
+                     cv::Scalar(outside));
+  return out;
+}
+
+// How far the box sums of a candidate reach from the I_t pixel that makes it possible: the
+// candidate lies within (A, B) of it and its sums read up to (F + 1, B + 1) further.
+int ReachPx(const TemplateBoxes& b) {
+  return static_cast<int>(std::ceil(std::hypot(b.contact_half_len + b.finger_outer + 1,
+                                               2 * b.half_width + 1))) + 1;
+}
+
+// The top-left `size` of `buffer`, which grows when too small (buffers are reused, so large
+// images are not allocated and page-faulted again for every slice and angle).
+template <class M>
+M View(M& buffer, cv::Size size) {
+  if (buffer.rows < size.height || buffer.cols < size.width) {
+    buffer.create(std::max(buffer.rows, size.height), std::max(buffer.cols, size.width));
+  }
+  return buffer(cv::Rect(cv::Point(0, 0), size));
+}
+
+int BlurDownscale(double sigma_px) {
+  int d = 1;
+  while (2 * d <= kMaxBlurDownscale && sigma_px / (2 * d) >= kMinBlurSigmaCells) d *= 2;
+  return d;
+}
+
+cv::Rect RoundUp(const cv::Rect& r, int multiple) {
+  auto up = [multiple](int n) { return (n + multiple - 1) / multiple * multiple; };
+  return {r.x, r.y, up(r.width), up(r.height)};
+}
+
+// Binary image (0/1) of (word & mask) > level, written to auto-vectorise.
+void ThresholdMasked(const std::uint16_t* __restrict src, std::uint8_t* __restrict dst, int n,
+                     std::uint16_t mask, std::uint16_t level) {
+  for (int i = 0; i < n; ++i) dst[i] = static_cast<std::uint8_t>((src[i] & mask) > level);
+}
+
+// Level words: height levels (+ graspable bit) in the low byte, seam levels in the high byte.
+cv::Mat1w PackLevels(const cv::Mat1b& height_levels, const cv::Mat1b& seam_levels) {
+  cv::Mat1w out(height_levels.size());
+  for (int y = 0; y < out.rows; ++y) {
+    const std::uint8_t* h = height_levels.ptr<std::uint8_t>(y);
+    const std::uint8_t* s = seam_levels.ptr<std::uint8_t>(y);
+    std::uint16_t* o = out.ptr<std::uint16_t>(y);
+    for (int x = 0; x < out.cols; ++x) o[x] = static_cast<std::uint16_t>(h[x] | (s[x] << kSeamShift));
+  }
+  return out;
+}
+
+}  // namespace
+
+struct FastFge::Workspace {
+  cv::Mat1w levels, turned_levels;
+  cv::Mat1b binary;
+  std::vector<cv::Mat1i> integrals;
+  cv::Mat1f candidate, small, blurred, grasp;
+  std::vector<int> strip_contact, strip_tip, strip_palm, strip_seam;
+  std::vector<int> row_contact, row_collision;
+};
+
+struct FastFge::Canvas {
+  cv::Mat1w levels;  // view into the workspace: level words
+  cv::Matx23d crop_from_canvas;
+  cv::Matx23d canvas_from_crop;
+  cv::Rect safe;     // centres whose box sums stay inside the canvas
+  std::vector<cv::Rect> objects;  // FastFge::objects_ boxes, rotated (canvas pixels)
+};
+
+namespace {
+
+// Integral images of the canvas' binary images over `region`, each computed once per angle.
+class IntegralCache {
+ public:
+  IntegralCache(const FastFge::Canvas& canvas, const cv::Rect& region, FastFge::Workspace& ws)
+      : canvas_(canvas), region_(region), ws_(ws) {}
+
+  /// Any surface above level j (obstacles; the outside of the image included).
+  cv::Mat1i ObstaclesAbove(int level) { return Above(Kind::kObstacle, level); }
+  /// Graspable surface above level j (I_t).
+  cv::Mat1i ContactAbove(int level) { return Above(Kind::kContact, level); }
+  /// Seams whose both sides lie above level j.
+  cv::Mat1i SeamsAbove(int level) { return Above(Kind::kSeam, level); }
+
+ private:
+  enum class Kind { kObstacle, kContact, kSeam };
+  struct Entry {
+    Kind kind;
+    int level;
+    cv::Mat1i sums;
+  };
+
+  cv::Mat1i Above(Kind kind, int level) {
+    for (const Entry& e : entries_) {
+      if (e.kind == kind && e.level == level) return e.sums;
+    }
+    const cv::Mat1w src = canvas_.levels(region_);
+    cv::Mat1b binary = View(ws_.binary, region_.size());
+    std::uint16_t mask = kLevelMask;
+    int above = level;
+    if (kind == Kind::kContact) {  // low byte > graspable bit + j  <=>  graspable and level > j
+      mask = kLowByte;
+      above = kGraspableBit + level;
+    } else if (kind == Kind::kSeam) {  // high byte > j
+      mask = kSeamMask;
+      above = (level << kSeamShift) | kLowByte;
+    }
+    for (int y = 0; y < src.rows; ++y) {
+      ThresholdMasked(src.ptr<std::uint16_t>(y), binary.ptr<std::uint8_t>(y), src.cols, mask,
+                      static_cast<std::uint16_t>(above));
+    }
+    const std::size_t slot = entries_.size();
+    if (ws_.integrals.size() <= slot) ws_.integrals.resize(slot + 1);
+    cv::Mat1i sums = View(ws_.integrals[slot], region_.size() + cv::Size(1, 1));
+    cv::integral(binary, sums, CV_32S);
+    entries_.push_back({kind, level, sums});
+    return sums;
+  }
+
+  const FastFge::Canvas& canvas_;
+  cv::Rect region_;
+  FastFge::Workspace& ws_;
+  std::vector<Entry> entries_;  // a handful of levels: a vector beats a map
+};
+
+struct SliceIntegrals {  // headers sharing the workspace buffers
+  cv::Point origin;      // canvas pixel of the integrals' first row and column
+  cv::Mat1i contact;     // I_t
+  cv::Mat1i tip;         // I_c
+  cv::Mat1i palm;        // empty: nothing reaches the palm
+  cv::Mat1i seam;        // empty: no seam
+};
+
+void StripSums(const int* __restrict top, const int* __restrict bottom, int* __restrict out,
+               std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) out[i] = bottom[i] - top[i];
+}
+
+// out[i] = number of set pixels in columns < x0 + i of rows [y - b, y + b] (zeros if absent).
+void Strip(const cv::Mat1i& integral, int y, int b, int x0, std::vector<int>& out) {
+  if (integral.empty()) {
+    std::fill(out.begin(), out.end(), 0);
+    return;
+  }
+  StripSums(integral.ptr<int>(y - b) + x0, integral.ptr<int>(y + b + 1) + x0, out.data(),
+            out.size());
+}
+
+// Candidate test for `width` pixels of a row over strip sums: index i + f is the candidate's own
+// column, its closing region spans [i + f - a, i + f + a] and its fingers [i, i + f - a - 1] and
+// [i + f + a + 1, i + 2f]. Restrict parameters let GCC vectorise the loop.
+int EvaluateRow(const int* __restrict st, const int* __restrict sc, const int* __restrict sp,
+                const int* __restrict ss, int a, int f, int min_contact, int width,
+                float* __restrict candidate, int* __restrict contact_out,
+                int* __restrict collision_out) {
+  const int lo = f - a, hi = f + a + 1, outer = 2 * f + 1;
+  int count = 0;
+  for (int i = 0; i < width; ++i) {
+    const int contact = st[i + hi] - st[i + lo];
+    const int tips_inside = sc[i + hi] - sc[i + lo];
+    const int collision = sc[i + outer] - sc[i + hi] + sc[i + lo] - sc[i];
+    const int blocked = collision | (sp[i + outer] - sp[i]) | (ss[i + hi] - ss[i + lo]);
+    const int ok = (contact >= min_contact) & (blocked == 0) &
+                   (tips_inside * kSlipRatioDen <= contact * kSlipRatioNum);
+    candidate[i] = static_cast<float>(ok);
+    contact_out[i] = contact;
+    collision_out[i] = collision;
+    count += ok;
+  }
+  return count;
+}
+
+// One row of the candidate map (1 where A_t >= min, A_c = 0, no slip, no palm collision and no
+// seam) for canvas pixels [x0, x0 + width) of row y; A_t and A_c per pixel go to the workspace.
+// Returns the number of candidates.
+int CandidateRow(const SliceIntegrals& in, const FastFge::SliceWork& w, int y, int x0, int width,
+                 FastFge::Workspace& ws, float* candidate) {
+  const int a = w.boxes.contact_half_len;
+  const int f = w.boxes.finger_outer;
+  const int b = w.boxes.half_width;
+  const auto n = static_cast<std::size_t>(width + 2 * f + 1);
+  for (auto* s : {&ws.strip_contact, &ws.strip_tip, &ws.strip_palm, &ws.strip_seam}) s->resize(n);
+  ws.row_contact.resize(static_cast<std::size_t>(width));
+  ws.row_collision.resize(static_cast<std::size_t>(width));
+  const int iy = y - in.origin.y, ix = x0 - f - in.origin.x;
+  Strip(in.contact, iy, b, ix, ws.strip_contact);
+  Strip(in.tip, iy, b, ix, ws.strip_tip);
+  Strip(in.palm, iy, b, ix, ws.strip_palm);
+  Strip(in.seam, iy, b, ix, ws.strip_seam);
+  return EvaluateRow(ws.strip_contact.data(), ws.strip_tip.data(), ws.strip_palm.data(),
+                     ws.strip_seam.data(), a, f, w.min_contact_px, width, candidate,
+                     ws.row_contact.data(), ws.row_collision.data());
+}
+
+void BlurSmall(const cv::Mat1f& candidate, double sigma_px, int d, FastFge::Workspace& ws,
+               cv::Mat1f& small, cv::Mat1f& blurred);
+
+// Gaussian blur of the candidate map times the candidate map, clamped to [0, 1]. The blur runs
+// on cells of d x d pixels (area averages, sigma scaled alike) and is upsampled bicubically.
+// `candidate` (sides divisible by d) must hold every candidate of the map (the blur sees zeros
+// around it: exact at every candidate).
+void Graspability(const cv::Mat1f& candidate, double sigma_px, int d, FastFge::Workspace& ws,
+                  cv::Mat1f& grasp) {
+  cv::Mat1f small, blurred_small;
+  BlurSmall(candidate, sigma_px, d, ws, small, blurred_small);
+  cv::Mat1f blurred;
+  cv::resize(blurred_small, blurred, candidate.size(), 0, 0, cv::INTER_CUBIC);
+  for (int y = 0; y < candidate.rows; ++y) {
+    const float* c = candidate.ptr<float>(y);
+    const float* g = blurred.ptr<float>(y);
+    float* out = grasp.ptr<float>(y);
+    for (int x = 0; x < candidate.cols; ++x) out[x] = c[x] * std::clamp(g[x], 0.0f, 1.0f);
+  }
+}
+
+struct CanvasPeak {
+  cv::Point2d canvas_px;
+  float score;
+};
+
+// Rectangles that overlap once grown by `gap` pixels are merged until none do: the results are
+// disjoint and at least `gap` apart.
+std::vector<cv::Rect> MergeRects(std::vector<cv::Rect> rects, int gap) {
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (std::size_t i = 0; i < rects.size() && !merged; ++i) {
+      const cv::Rect grown(rects[i].x - gap, rects[i].y - gap, rects[i].width + 2 * gap,
+                           rects[i].height + 2 * gap);
+      for (std::size_t j = i + 1; j < rects.size(); ++j) {
+        if ((grown & rects[j]).empty()) continue;
+        rects[i] |= rects[j];
+        rects.erase(rects.begin() + static_cast<std::ptrdiff_t>(j));
+        merged = true;
+        break;
+      }
+    }
+  }
+  return rects;
+}
+
+// Canvas pixels that can be candidates at one slice: near objects reaching its contact level,
+// grown by the closing region; clusters closer than the blur radius form one rectangle.
+std::vector<cv::Rect> SliceRois(const FastFge::Canvas& canvas,
+                                const std::vector<FastFge::Object>& objects,
+                                const FastFge::SliceWork& w) {
+  std::vector<cv::Rect> rois;
+  const int a = w.boxes.contact_half_len, b = w.boxes.half_width;
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    if (objects[i].max_contact_level <= w.contact_level) continue;
+    const cv::Rect& r = canvas.objects[i];
+    const cv::Rect roi = cv::Rect(r.x - a, r.y - b, r.width + 2 * a, r.height + 2 * b) & canvas.safe;
+    if (!roi.empty()) rois.push_back(roi);
+  }
+  const int d = w.blur_downscale;
+  const int blur_radius = d * (GaussianKernelSize(w.blur_sigma_px / d) / 2 + 1);
+  return MergeRects(std::move(rois), blur_radius);
+}
+
+// Bounding box of the non-zero pixels of rows [y0, y1] of `map` (rows known to hold some).
+cv::Rect NonZeroBox(const cv::Mat1f& map, int y0, int y1) {
+  int x0 = map.cols, x1 = -1;
+  for (int y = y0; y <= y1; ++y) {
+    const float* row = map.ptr<float>(y);
+    for (int x = 0; x < x0; ++x) {
+      if (row[x] != 0) {
+        x0 = x;
+        break;
+      }
+    }
+    for (int x = map.cols - 1; x > x1; --x) {
+      if (row[x] != 0) {
+        x1 = x;
+        break;
+      }
+    }
+  }
+  return {x0, y0, x1 - x0 + 1, y1 - y0 + 1};
+}
+
+TemplateBoxes LargestBoxes(const std::vector<FastFge::SliceWork>& work) {
+  TemplateBoxes largest;
+  for (const FastFge::SliceWork& w : work) {
+    largest.contact_half_len = std::max(largest.contact_half_len, w.boxes.contact_half_len);
+    largest.finger_outer = std::max(largest.finger_outer, w.boxes.finger_outer);
+    largest.half_width = std::max(largest.half_width, w.boxes.half_width);
+  }
+  return largest;
+}
+
+// Connected graspable regions of `contact` (crop level words) above `level`.
+std::vector<FastFge::Object> FindObjects(const cv::Mat1w& levels, int level) {
+  cv::Mat1b mask(levels.size());
+  for (int y = 0; y < levels.rows; ++y) {
+    const std::uint16_t* l = levels.ptr<std::uint16_t>(y);
+    std::uint8_t* m = mask.ptr<std::uint8_t>(y);
+    for (int x = 0; x < levels.cols; ++x) m[x] = (l[x] & kLowByte) > kGraspableBit + level ? 255 : 0;
+  }
+  cv::Mat1i labels, stats;
+  cv::Mat1d centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  std::vector<FastFge::Object> objects(static_cast<std::size_t>(std::max(0, n - 1)));
+  for (int i = 1; i < n; ++i) {
+    objects[static_cast<std::size_t>(i - 1)].crop_box =
+        cv::Rect(stats(i, cv::CC_STAT_LEFT), stats(i, cv::CC_STAT_TOP),
+                 stats(i, cv::CC_STAT_WIDTH), stats(i, cv::CC_STAT_HEIGHT));
+  }
+  for (int y = 0; y < levels.rows; ++y) {
+    const std::uint16_t* l = levels.ptr<std::uint16_t>(y);
+    const int* lab = labels.ptr<int>(y);
+    for (int x = 0; x < levels.cols; ++x) {
+      if (lab[x] == 0) continue;
+      int& top = objects[static_cast<std::size_t>(lab[x] - 1)].max_contact_level;
+      top = std::max(top, (l[x] & kLowByte) - kGraspableBit);
+    }
+  }
+  return objects;
+}
+
+// Whether any surface (or the outside of the image) in the level words is not graspable.
+bool HasUngraspableSurface(const cv::Mat1w& levels) {
+  for (int y = 0; y < levels.rows; ++y) {
+    const std::uint16_t* l = levels.ptr<std::uint16_t>(y);
+    for (int x = 0; x < levels.cols; ++x) {
+      if ((l[x] & kLevelMask) > 0 && !(l[x] & kGraspableBit)) return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+FastFge::FastFge(const Scene& scene, const Camera& camera, const Gripper& gripper,
+                 const FgeParams& params, std::vector<Slice> slices, const cv::Mat1b& graspable)
+    : image_size_(scene.height_m.size()), slices_(std::move(slices)),
+      ws_(std::make_unique<Workspace>()) {
+  if (slices_.empty() || scene.height_m.empty()) return;
+  scale_ = WorkScale(scene.floor, camera, gripper);
+  const std::vector<float> levels = CollectLevels(slices_);
+  for (const Slice& s : slices_) {
+    const double px_per_m = PxPerMetre(scene.floor, camera, s.contact_height_m) / scale_;
+    const GripperPx g = GripperAtScale(gripper, px_per_m);
+    SliceWork w;
+    w.boxes = RasteriseTemplates(g);
+    w.min_contact_px = MinContactCount(w.boxes.ContactArea());
+    w.blur_sigma_px = BlurSigmaPx(g);
+    w.blur_downscale = BlurDownscale(w.blur_sigma_px);
+    w.contact_level = LevelIndex(levels, s.contact_height_m);
+    w.tip_level = LevelIndex(levels, s.tip_height_m);
+    w.palm_level = LevelIndex(levels, s.palm_height_m);
+    margin_px_ = std::max(margin_px_, ReachPx(w.boxes));
+    work_.push_back(w);
+  }
+  min_contact_level_ = work_.back().contact_level;  // slices descend: the last is the lowest
+
+  const cv::Mat1f height = ConservativePool(scene.height_m, scale_);
+  work_size_ = height.size();
+  const cv::Mat1b work_levels =
+      LevelImage(height, levels, PoolMax<std::uint8_t>(graspable, scale_, 0, 0));
+  // Candidates need contact with I_t at some slice; obstacles farther than a template's reach
+  // from every I_t pixel cannot change any candidate, so the crop follows the lowest I_t.
+  cv::Mat1b lowest_contact;
+  cv::threshold(work_levels, lowest_contact, kGraspableBit + min_contact_level_, 255,
+                cv::THRESH_BINARY);
+  const cv::Rect occupied = cv::boundingRect(lowest_contact);
+  if (occupied.empty()) return;
+  // The crop may reach past the image: there the gripper would be blind, so it is an obstacle.
+  crop_ = cv::Rect(occupied.x - margin_px_, occupied.y - margin_px_,
+                   occupied.width + 2 * margin_px_, occupied.height + 2 * margin_px_);
+  const cv::Mat1f seams = ConservativePool(SeamLevels(scene.height_m, params.seam_step_m), scale_);
+  const cv::Mat1b seam_levels = CropWithBorder(LevelImage(seams, levels), crop_, 0);
+  levels_ = PackLevels(CropWithBorder(work_levels, crop_, kOutsideLevel), seam_levels);
+
+  double max_seam = 0;
+  cv::minMaxLoc(seam_levels, nullptr, &max_seam);
+  max_seam_level_ = static_cast<int>(max_seam);
+  for (int y = 0; y < levels_.rows; ++y) {
+    const std::uint16_t* l = levels_.ptr<std::uint16_t>(y);
+    for (int x = 0; x < levels_.cols; ++x) {
+      max_level_ = std::max(max_level_, l[x] & kLevelMask);
+      if (l[x] & kGraspableBit) {
+        max_contact_level_ = std::max(max_contact_level_, (l[x] & kLowByte) - kGraspableBit);
+      }
+    }
+  }
+  contact_is_obstacle_ = !HasUngraspableSurface(levels_);
+  objects_ = FindObjects(levels_, min_contact_level_);
+}
+
+FastFge::~FastFge() = default;
+
+FastFge::Canvas FastFge::MakeCanvas(double angle_rad) {
+  const double c = std::cos(angle_rad);
+  const double s = std::sin(angle_rad);
+  const double w = crop_.width;
+  const double h = crop_.height;
+  const int m = margin_px_;
+  const cv::Size size(static_cast<int>(std::ceil(w * std::abs(c) + h * std::abs(s))) + 2 * m,
+                      static_cast<int>(std::ceil(w * std::abs(s) + h * std::abs(c))) + 2 * m);
+  const cv::Point2d p((w - 1) / 2, (h - 1) / 2);                          // crop centre
+  const cv::Point2d q((size.width - 1) / 2.0, (size.height - 1) / 2.0);  // canvas centre
+  Canvas canvas;
+  // canvas = R(-angle) (crop - p) + q: the closing axis becomes +x.
+  canvas.canvas_from_crop =
+      cv::Matx23d(c, s, q.x - c * p.x - s * p.y, -s, c, q.y + s * p.x - c * p.y);
+  canvas.crop_from_canvas =
+      cv::Matx23d(c, -s, p.x - c * q.x + s * q.y, s, c, p.y - s * q.x - c * q.y);
+  canvas.levels = View(ws_->levels, size);
+  cv::warpAffine(levels_, canvas.levels, canvas.canvas_from_crop, size, cv::INTER_NEAREST,
+                 cv::BORDER_CONSTANT, 0);
+  canvas.safe = cv::Rect(m, m, size.width - 2 * m, size.height - 2 * m);
+  // Object boxes: the rotated box's corners (pixel edges), rounded outwards.
+  for (const Object& o : objects_) {
+    const cv::Rect& r = o.crop_box;
+    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    for (const cv::Point2d corner : {cv::Point2d(r.x - 0.5, r.y - 0.5),
+                                     cv::Point2d(r.x + r.width - 0.5, r.y - 0.5),
+                                     cv::Point2d(r.x - 0.5, r.y + r.height - 0.5),
+                                     cv::Point2d(r.x + r.width - 0.5, r.y + r.height - 0.5)}) {
+      const cv::Matx23d& t = canvas.canvas_from_crop;
+      const double x = t(0, 0) * corner.x + t(0, 1) * corner.y + t(0, 2);
+      const double y = t(1, 0) * corner.x + t(1, 1) * corner.y + t(1, 2);
+      x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+    }
+    const cv::Point tl(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0)));
+    const cv::Point br(static_cast<int>(std::ceil(x1)) + 1, static_cast<int>(std::ceil(y1)) + 1);
+    canvas.objects.emplace_back(tl, br);
+  }
+  return canvas;
+}
+
+FastFge::Canvas FastFge::TurnedCanvas(const Canvas& canvas) const {
+  // turned(x, y) = canvas(W - 1 - y, x): the canvas axis +y (angle + pi/2) becomes +x.
+  const double w1 = canvas.levels.cols - 1;
+  Canvas turned;
+  turned.levels = View(ws_->turned_levels, cv::Size(canvas.levels.rows, canvas.levels.cols));
+  cv::rotate(canvas.levels, turned.levels, cv::ROTATE_90_COUNTERCLOCKWISE);
+  const cv::Matx33d turn(0, 1, 0, -1, 0, w1, 0, 0, 1);      // turned from canvas
+  const cv::Matx33d unturn(0, -1, w1, 1, 0, 0, 0, 0, 1);    // canvas from turned
+  const cv::Matx33d from_crop(canvas.canvas_from_crop(0, 0), canvas.canvas_from_crop(0, 1),
+                              canvas.canvas_from_crop(0, 2), canvas.canvas_from_crop(1, 0),
+                              canvas.canvas_from_crop(1, 1), canvas.canvas_from_crop(1, 2), 0, 0, 1);
+  const cv::Matx33d to_crop(canvas.crop_from_canvas(0, 0), canvas.crop_from_canvas(0, 1),
+                            canvas.crop_from_canvas(0, 2), canvas.crop_from_canvas(1, 0),
+                            canvas.crop_from_canvas(1, 1), canvas.crop_from_canvas(1, 2), 0, 0, 1);
+  turned.canvas_from_crop = (turn * from_crop).get_minor<2, 3>(0, 0);
+  turned.crop_from_canvas = (to_crop * unturn).get_minor<2, 3>(0, 0);
+  const int m = margin_px_;
+  turned.safe = cv::Rect(m, m, turned.levels.cols - 2 * m, turned.levels.rows - 2 * m);
+  for (const cv::Rect& r : canvas.objects) {
+    turned.objects.emplace_back(r.y, static_cast<int>(w1) + 1 - r.x - r.width, r.height, r.width);
+  }
+  return turned;
+}
+
+cv::Point2d FastFge::ToImage(const Canvas& canvas, cv::Point2d q) const {
+  const cv::Matx23d& t = canvas.crop_from_canvas;
+  const double x = t(0, 0) * q.x + t(0, 1) * q.y + t(0, 2) + crop_.x;
+  const double y = t(1, 0) * q.x + t(1, 1) * q.y + t(1, 2) + crop_.y;
+  const double offset = (scale_ - 1) / 2.0;  // centre of the work pixel's block
+  return {x * scale_ + offset, y * scale_ + offset};
+}
+
+namespace {
+
+struct LevelLimits {
+  int max_level;       // highest obstacle level (palm checks above it are skipped)
+  int max_seam_level;  // highest seam level
+  bool contact_is_obstacle;
+};
+
+SliceIntegrals IntegralsFor(const FastFge::SliceWork& w, IntegralCache& cache, cv::Point origin,
+                            const LevelLimits& limits) {
+  SliceIntegrals in;
+  in.origin = origin;
+  in.contact = limits.contact_is_obstacle ? cache.ObstaclesAbove(w.contact_level)
+                                          : cache.ContactAbove(w.contact_level);
+  in.tip = cache.ObstaclesAbove(w.tip_level);
+  if (w.palm_level < limits.max_level) in.palm = cache.ObstaclesAbove(w.palm_level);
+  if (w.tip_level < limits.max_seam_level) in.seam = cache.SeamsAbove(w.tip_level);
+  return in;
+}
+
+// The candidate map blurred on cells of d x d pixels: `small` holds the cells' area averages of
+// the candidate map (> 0 where a cell holds a candidate), `blurred` their Gaussian blur.
+void BlurSmall(const cv::Mat1f& candidate, double sigma_px, int d, FastFge::Workspace& ws,
+               cv::Mat1f& small, cv::Mat1f& blurred) {
+  small = View(ws.small, candidate.size() / d);
+  cv::resize(candidate, small, small.size(), 0, 0, cv::INTER_AREA);
+  blurred = View(ws.blurred, small.size());
+  const double sigma_small = sigma_px / d;
+  const int k = GaussianKernelSize(sigma_small);
+  // BORDER_ISOLATED: the views lie in reused buffers; never read the pixels around them.
+  cv::GaussianBlur(small, blurred, cv::Size(k, k), sigma_small, sigma_small,
+                   cv::BORDER_CONSTANT | cv::BORDER_ISOLATED);
+}
+
+// Vertex of the parabola through (-1, lo), (0, mid), (1, hi): offset in [-0.5, 0.5] and value.
+std::pair<double, double> ParabolaPeak(double lo, double mid, double hi) {
+  const double curvature = lo - 2 * mid + hi;
+  if (!(curvature < 0)) return {0.0, mid};
+  const double offset = std::clamp(0.5 * (lo - hi) / curvature, -0.5, 0.5);
+  return {offset, mid - 0.25 * (lo - hi) * offset};
+}
+
+// Peaks of the graspability at cell resolution: cells holding a candidate whose blurred value is
+// >= that of every neighbouring cell holding one. Each is refined with parabolas through its
+// neighbours and moved to the nearest candidate pixel of its cell; its score is the parabolas'
+// peak value. `offset` maps candidate-map pixels to canvas pixels.
+void CellPeaks(const cv::Mat1f& candidate, const cv::Mat1f& small, const cv::Mat1f& blurred,
+               int d, cv::Point offset, std::vector<CanvasPeak>& peaks) {
+  const int rows = small.rows, cols = small.cols;
+  auto value = [&](int r, int c) {  // blurred value where a candidate lies, else 0
+    return small(r, c) > 0 ? blurred(r, c) : 0.0f;
+  };
+  auto clamped = [&](int r, int c) {
+    return blurred(std::clamp(r, 0, rows - 1), std::clamp(c, 0, cols - 1));
+  };
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      if (!(small(r, c) > 0)) continue;
+      const float g = blurred(r, c);
+      bool peak = g > 0;
+      for (int rr = std::max(0, r - 1); rr <= std::min(rows - 1, r + 1) && peak; ++rr) {
+        for (int cc = std::max(0, c - 1); cc <= std::min(cols - 1, c + 1); ++cc) {
+          if (value(rr, cc) > g) {
+            peak = false;
+            break;
+          }
+        }
+      }
+      if (!peak) continue;
+      const auto [dx, vx] = ParabolaPeak(clamped(r, c - 1), g, clamped(r, c + 1));
+      const auto [dy, vy] = ParabolaPeak(clamped(r - 1, c), g, clamped(r + 1, c));
+      const double x = (c + 0.5 + dx) * d - 0.5, y = (r + 0.5 + dy) * d - 0.5;
+      cv::Point best(-1, -1);
+      double best_d2 = 1e18;
+      for (int py = r * d; py < (r + 1) * d; ++py) {
+        for (int px = c * d; px < (c + 1) * d; ++px) {
+          const double d2 = (px - x) * (px - x) + (py - y) * (py - y);
+          if (candidate(py, px) > 0 && d2 < best_d2) best = {px, py}, best_d2 = d2;
+        }
+      }
+      const double score = std::clamp(vx + vy - g, 0.0, 1.0);
+      peaks.push_back({cv::Point2d(offset.x + best.x, offset.y + best.y),
+                       static_cast<float>(score)});
+    }
+  }
+}
+
+// Candidates, graspability and peaks of one slice inside one ROI (canvas pixels).
+void PeaksInRoi(const SliceIntegrals& in, const FastFge::SliceWork& w, const cv::Rect& roi,
+                FastFge::Workspace& ws, std::vector<CanvasPeak>& peaks) {
+  cv::Mat1f candidate = View(ws.candidate, roi.size());
+  int first_row = -1, last_row = -1;
+  for (int y = 0; y < roi.height; ++y) {
+    if (CandidateRow(in, w, roi.y + y, roi.x, roi.width, ws, candidate.ptr<float>(y)) > 0) {
+      if (first_row < 0) first_row = y;
+      last_row = y;
+    }
+  }
+  if (first_row < 0) return;
+  // Blur only the candidates' bounding box (sides divisible by the cell size).
+  const cv::Rect box = NonZeroBox(candidate, first_row, last_row);
+  const cv::Rect padded = RoundUp(box, w.blur_downscale);
+  cv::Mat1f blur_input = View(ws.grasp, padded.size());
+  blur_input.setTo(0);
+  candidate(box).copyTo(blur_input(cv::Rect(cv::Point(0, 0), box.size())));
+  cv::Mat1f small, blurred;
+  BlurSmall(blur_input, w.blur_sigma_px, w.blur_downscale, ws, small, blurred);
+  CellPeaks(blur_input, small, blurred, w.blur_downscale, roi.tl() + box.tl(), peaks);
+}
+
+}  // namespace
+
+std::vector<std::vector<LocalMaximum>> FastFge::LocalMaxima(double angle_rad) {
+  std::vector<std::vector<LocalMaximum>> result(slices_.size());
+  if (crop_.empty()) return result;
+  const bool turn = last_canvas_ && std::abs(angle_rad - last_angle_rad_ - kHalfPi) < 1e-9;
+  const Canvas canvas = turn ? TurnedCanvas(*last_canvas_) : MakeCanvas(angle_rad);
+  if (turn) {
+    last_canvas_.reset();
+  } else {
+    last_canvas_ = std::make_unique<Canvas>(canvas);
+    last_angle_rad_ = angle_rad;
+  }
+  // Integrals cover every object's ROI plus the reach of the box sums.
+  const TemplateBoxes largest = LargestBoxes(work_);
+  cv::Rect objects;
+  for (const cv::Rect& r : canvas.objects) objects |= r;
+  const int reach_x = largest.contact_half_len + largest.finger_outer + 1;
+  const int reach_y = 2 * largest.half_width + 1;
+  const cv::Rect region = cv::Rect(objects.x - reach_x, objects.y - reach_y,
+                                   objects.width + 2 * reach_x, objects.height + 2 * reach_y) &
+                          cv::Rect(cv::Point(0, 0), canvas.levels.size());
+  IntegralCache cache(canvas, region, *ws_);
+  const LevelLimits limits{max_level_, max_seam_level_, contact_is_obstacle_};
+  std::vector<CanvasPeak> peaks;
+  for (std::size_t i = 0; i < slices_.size(); ++i) {
+    const SliceWork& w = work_[i];
+    if (w.contact_level >= max_contact_level_) continue;  // nothing above the contact height
+    const std::vector<cv::Rect> rois = SliceRois(canvas, objects_, w);
+    if (rois.empty()) continue;
+    const SliceIntegrals in = IntegralsFor(w, cache, region.tl(), limits);
+    peaks.clear();
+    for (const cv::Rect& roi : rois) PeaksInRoi(in, w, roi, *ws_, peaks);
+    for (const CanvasPeak& peak : peaks) {
+      const cv::Point2d p = ToImage(canvas, peak.canvas_px);
+      result[i].push_back({p.x, p.y, peak.score});
+    }
+  }
+  return result;
+}
+
+namespace {
+
+// Canvas map -> image-size map: rotate back onto the crop, paste into the work image, upsample.
+cv::Mat1f CanvasToImage(const cv::Mat1f& canvas_map, const cv::Matx23d& canvas_from_crop,
+                        const cv::Rect& crop, cv::Size work_size, int scale, cv::Size image_size,
+                        double value_scale) {
+  cv::Mat1f crop_map;
+  cv::warpAffine(canvas_map, crop_map, canvas_from_crop, crop.size(),
+                 cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, 0);
+  cv::Mat1f work = cv::Mat1f::zeros(work_size);
+  const cv::Rect inside = crop & cv::Rect(cv::Point(0, 0), work_size);
+  crop_map(inside - crop.tl()).copyTo(work(inside));
+  cv::Mat1f upsampled;
+  cv::resize(work, upsampled, cv::Size(work_size.width * scale, work_size.height * scale), 0, 0,
+             cv::INTER_NEAREST);
+  cv::Mat1f image = upsampled(cv::Rect(cv::Point(0, 0), image_size)).clone();
+  if (value_scale != 1.0) image *= value_scale;
+  return image;
+}
+
+}  // namespace
+
+FgeMaps FastFge::Maps(double angle_rad, std::size_t slice_pos) {
+  FgeMaps maps{cv::Mat1f::zeros(image_size_), cv::Mat1f::zeros(image_size_),
+               cv::Mat1f::zeros(image_size_)};
+  if (crop_.empty() || slice_pos >= slices_.size()) return maps;
+  const Canvas canvas = MakeCanvas(angle_rad);
+  const cv::Rect whole(cv::Point(0, 0), canvas.levels.size());
+  IntegralCache cache(canvas, whole, *ws_);
+  const SliceWork& w = work_[slice_pos];
+  const SliceIntegrals in = IntegralsFor(
+      w, cache, whole.tl(), LevelLimits{max_level_, max_seam_level_, contact_is_obstacle_});
+  const cv::Rect roi = canvas.safe;
+  cv::Mat1f contact = cv::Mat1f::zeros(whole.size()), collision = cv::Mat1f::zeros(whole.size());
+  cv::Mat1f candidate = cv::Mat1f::zeros(RoundUp(roi, w.blur_downscale).size());
+  for (int y = 0; y < roi.height; ++y) {
+    CandidateRow(in, w, roi.y + y, roi.x, roi.width, *ws_, candidate.ptr<float>(y));
+    for (int x = 0; x < roi.width; ++x) {
+      const auto i = static_cast<std::size_t>(x);
+      contact(roi.y + y, roi.x + x) = static_cast<float>(ws_->row_contact[i]);
+      collision(roi.y + y, roi.x + x) = static_cast<float>(ws_->row_collision[i]);
+    }
+  }
+  cv::Mat1f grasp(candidate.size());
+  Graspability(candidate, w.blur_sigma_px, w.blur_downscale, *ws_, grasp);
+  cv::Mat1f grasp_canvas = cv::Mat1f::zeros(whole.size());
+  grasp(cv::Rect(cv::Point(0, 0), roi.size())).copyTo(grasp_canvas(roi));
+
+  const double area_scale = static_cast<double>(scale_) * scale_;
+  auto to_image = [&](const cv::Mat1f& m, double value_scale) {
+    return CanvasToImage(m, canvas.canvas_from_crop, crop_, work_size_, scale_, image_size_,
+                         value_scale);
+  };
+  maps.contact = to_image(contact, area_scale);
+  maps.collision = to_image(collision, area_scale);
+  maps.graspability = to_image(grasp_canvas, 1.0);
+  return maps;
+}
+
+}  // namespace softgrasp::core::fge_detail

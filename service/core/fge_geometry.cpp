@@ -1,0 +1,285 @@
+#include "service/core/fge_geometry.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace softgrasp::core::fge_detail {
+namespace {
+
+constexpr double kMmToM = 1e-3;
+constexpr double kRoundingSlackPx = 1e-9;  // 21.9999999 px counts as 22 px
+constexpr double kHistogramBinM = 0.001;
+constexpr double kHistogramTopM = 2.0;
+// A clamped last slice is added only if it lies at least this far below the previous one.
+constexpr double kMinSliceGapM = 0.002;
+constexpr int kRegionSampleRows = 120;  // free objects are found on ~120 rows of blocks
+// The lower side of a seam is flat: its next pixel differs by less than this times seam_step.
+constexpr double kSeamFlatFraction = 0.5;
+
+void Require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument("FGE: " + what);
+}
+
+int FloorPx(double px) { return static_cast<int>(std::floor(px + kRoundingSlackPx)); }
+
+// Height of the n-th highest positive pixel inside `mask`, from a 1 mm histogram (heights above
+// kHistogramTopM share the last bin) refined inside its bin.
+std::optional<double> NthHighestHeight(const cv::Mat1f& height_m, const cv::Mat1b& mask, int n) {
+  const int bins = static_cast<int>(kHistogramTopM / kHistogramBinM) + 1;
+  std::vector<int> count(static_cast<std::size_t>(bins), 0);
+  auto bin_of = [&](float h) {
+    return std::min(bins - 1, static_cast<int>(h / static_cast<float>(kHistogramBinM)));
+  };
+  for (int v = 0; v < height_m.rows; ++v) {
+    const float* h = height_m.ptr<float>(v);
+    const std::uint8_t* m = mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < height_m.cols; ++u) {
+      if (h[u] > 0 && m[u]) ++count[static_cast<std::size_t>(bin_of(h[u]))];
+    }
+  }
+  int above = 0;  // pixels in bins higher than b
+  for (int b = bins - 1; b >= 0; --b) {
+    const int in_bin = count[static_cast<std::size_t>(b)];
+    if (above + in_bin < n) {
+      above += in_bin;
+      continue;
+    }
+    std::vector<float> values;
+    values.reserve(static_cast<std::size_t>(in_bin));
+    for (int v = 0; v < height_m.rows; ++v) {
+      const float* h = height_m.ptr<float>(v);
+      const std::uint8_t* m = mask.ptr<std::uint8_t>(v);
+      for (int u = 0; u < height_m.cols; ++u) {
+        if (h[u] > 0 && m[u] && bin_of(h[u]) == b) values.push_back(h[u]);
+      }
+    }
+    auto nth = values.begin() + (n - above - 1);
+    std::nth_element(values.begin(), nth, values.end(), std::greater<>());
+    return *nth;
+  }
+  return std::nullopt;
+}
+
+// Pixels of free objects: connected regions of (height > level_m) that do not touch the image
+// border, found on a block-max-pooled copy (blocks of `step` pixels keep thin connections).
+// Robot parts, bin walls and objects cut by the image border are not free.
+cv::Mat1b FreeObjectPixels(const cv::Mat1f& height_m, double level_m) {
+  const int step = std::max(1, std::min(height_m.rows, height_m.cols) / kRegionSampleRows);
+  const auto level = static_cast<float>(level_m);
+  cv::Mat1b blocks((height_m.rows + step - 1) / step, (height_m.cols + step - 1) / step,
+                   static_cast<std::uint8_t>(0));
+  for (int v = 0; v < height_m.rows; ++v) {
+    const float* h = height_m.ptr<float>(v);
+    std::uint8_t* b = blocks.ptr<std::uint8_t>(v / step);
+    for (int u = 0; u < height_m.cols; ++u) b[u / step] |= h[u] > level ? 1 : 0;
+  }
+  cv::Mat1i labels, stats;
+  cv::Mat1d centroids;
+  const int n = cv::connectedComponentsWithStats(blocks, labels, stats, centroids, 8, CV_32S);
+  std::vector<std::uint8_t> free_label(static_cast<std::size_t>(n), 0);
+  for (int i = 1; i < n; ++i) {
+    const int x = stats(i, cv::CC_STAT_LEFT), y = stats(i, cv::CC_STAT_TOP);
+    const bool touches = x == 0 || y == 0 || x + stats(i, cv::CC_STAT_WIDTH) == blocks.cols ||
+                         y + stats(i, cv::CC_STAT_HEIGHT) == blocks.rows;
+    free_label[static_cast<std::size_t>(i)] = touches ? 0 : 255;
+  }
+  cv::Mat1b free_pixels(height_m.size());
+  for (int v = 0; v < height_m.rows; ++v) {
+    const float* h = height_m.ptr<float>(v);
+    const int* label = labels.ptr<int>(v / step);
+    std::uint8_t* out = free_pixels.ptr<std::uint8_t>(v);
+    for (int u = 0; u < height_m.cols; ++u) {
+      out[u] = h[u] > level ? free_label[static_cast<std::size_t>(label[u / step])] : 0;
+    }
+  }
+  return free_pixels;
+}
+
+struct FreeObjects {
+  double top_m = 0;     // n-th highest free-object pixel
+  cv::Mat1b pixels;     // the free objects
+};
+
+// Free objects at the lowest level (from lowest_m up in steps) where they cover n pixels.
+// Objects leaning on a bin wall separate from it higher up; robot parts reaching into the image
+// only separate near their tops, so objects on the floor win.
+std::optional<FreeObjects> FindFreeObjects(const cv::Mat1f& height_m, double lowest_m,
+                                           double step_m, int n) {
+  double max_height = 0;
+  cv::minMaxLoc(height_m, nullptr, &max_height);
+  for (double level = lowest_m; level < max_height; level += step_m) {
+    cv::Mat1b pixels = FreeObjectPixels(height_m, level);
+    if (auto top = NthHighestHeight(height_m, pixels, n)) return FreeObjects{*top, pixels};
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+void CheckInputs(const Camera& camera, const Gripper& gripper, const FgeParams& params) {
+  Require(std::isfinite(camera.fx) && camera.fx > 0 && std::isfinite(camera.fy) &&
+              camera.fy > 0 && std::isfinite(camera.cx) && std::isfinite(camera.cy),
+          "camera intrinsics must be finite with fx, fy > 0");
+  Require(gripper.opening_stroke_mm > 0 && gripper.finger_width_mm > 0 &&
+              gripper.finger_thickness_mm > 0 && gripper.finger_length_mm > 0,
+          "gripper sizes must be > 0");
+  Require(params.num_angles >= 1, "num_angles must be >= 1");
+  Require(params.num_height_steps >= 1 && params.num_height_steps <= kMaxHeightSteps,
+          "num_height_steps must be in [1, " + std::to_string(kMaxHeightSteps) + "]");
+  Require(params.height_step_m > 0, "height_step_m must be > 0");
+  Require(params.grip_depth_m >= 0, "grip_depth_m must be >= 0");
+  Require(params.grip_depth_m <= gripper.finger_length_mm * kMmToM,
+          "grip_depth_m must not exceed the finger length");
+  Require(params.min_object_area_px >= 0, "min_object_area_px must be >= 0");
+  Require(std::isfinite(params.floor_clearance_m), "floor_clearance_m must be finite");
+  Require(params.seam_step_m > 0, "seam_step_m must be > 0");
+  Require(params.top_k >= 1, "top_k must be >= 1");
+  Require(params.nms_radius_px >= 0, "nms_radius_px must be >= 0");
+}
+
+double FloorDepthOnAxisM(const Plane& floor) {
+  if (!(std::abs(floor.n[2]) > 1e-9)) return std::numeric_limits<double>::quiet_NaN();
+  return -floor.d / floor.n[2];
+}
+
+double PxPerMetre(const Plane& floor, const Camera& camera, double height_m) {
+  const double z_m = FloorDepthOnAxisM(floor) - height_m;
+  if (!(z_m > 0)) throw std::invalid_argument("FGE: slice height is not in front of the camera");
+  return camera.fx / z_m;
+}
+
+GripperPx GripperAtScale(const Gripper& gripper, double px_per_m) {
+  return {gripper.opening_stroke_mm * kMmToM * px_per_m,
+          gripper.finger_width_mm * kMmToM * px_per_m,
+          gripper.finger_thickness_mm * kMmToM * px_per_m};
+}
+
+TemplateBoxes RasteriseTemplates(const GripperPx& g) {
+  TemplateBoxes boxes;
+  boxes.contact_half_len = FloorPx(g.opening_px / 2);
+  // A finger is never thinner than one pixel, so collisions are always checked.
+  boxes.finger_outer =
+      std::max(boxes.contact_half_len + 1, FloorPx(g.opening_px / 2 + g.finger_thickness_px));
+  boxes.half_width = FloorPx(g.finger_width_px / 2);
+  return boxes;
+}
+
+int MinContactCount(int contact_area_px) {
+  return std::max(1, static_cast<int>(std::ceil(kMinContactFraction * contact_area_px)));
+}
+
+double BlurSigmaPx(const GripperPx& g) { return kBlurSigmaPerOpening * g.opening_px; }
+
+int GaussianKernelSize(double sigma_px) {
+  return 2 * static_cast<int>(std::ceil(3 * sigma_px)) + 1;
+}
+
+Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& params,
+              int index) {
+  const double tip_height_m = contact_height_m - params.grip_depth_m;
+  return {index, contact_height_m, tip_height_m, tip_height_m + gripper.finger_length_mm * kMmToM};
+}
+
+SliceSearch SearchSlices(const cv::Mat1f& height_m, const Gripper& gripper,
+                         const FgeParams& params) {
+  const int n = std::max(1, static_cast<int>(std::ceil(params.min_object_area_px)));
+  // Nothing lower than this can start a slice whose fingertips clear the floor.
+  const double lowest_m = params.floor_clearance_m + params.grip_depth_m;
+  SliceSearch search;
+  std::optional<double> top;
+  if (auto free = FindFreeObjects(height_m, lowest_m, params.height_step_m, n)) {
+    top = free->top_m;
+    search.graspable = free->pixels;
+  } else {  // every object touches the border at every level: let them all count
+    search.graspable = cv::Mat1b(height_m.size(), 255);
+    top = NthHighestHeight(height_m, search.graspable, n);
+  }
+  if (!top) return search;
+  const double h0 = *top - kTopSliceMarginM;
+  std::vector<Slice>& slices = search.slices;
+  for (int k = 0; k < params.num_height_steps; ++k) {
+    Slice slice = SliceAt(h0 - k * params.height_step_m, gripper, params, k);
+    if (slice.tip_height_m < params.floor_clearance_m) {
+      // The step would put the fingertips under the clearance: one last slice with the tips
+      // exactly at the clearance, unless the previous slice is (almost) there already.
+      const bool room = !slices.empty() &&
+                        slices.back().tip_height_m > params.floor_clearance_m + kMinSliceGapM;
+      if (room) slices.push_back(SliceAt(lowest_m, gripper, params, k));
+      break;
+    }
+    slices.push_back(slice);
+  }
+  return search;
+}
+
+namespace {
+
+// Seam test for the pair (p, q) of neighbours, p before q along a row or column; `before_p` and
+// `after_q` are the next pixels beyond them (NaN when outside the image).
+inline float SeamLevel(float before_p, float hp, float hq, float after_q, float step, float flat) {
+  if (!(std::abs(hp - hq) >= step)) return 0.0f;
+  // The lower side must continue flat away from the step.
+  const float beyond = hp < hq ? before_p : after_q;
+  const float low = std::min(hp, hq);
+  return std::abs(beyond - low) < flat ? low : 0.0f;
+}
+
+}  // namespace
+
+cv::Mat1f SeamLevels(const cv::Mat1f& height_m, double seam_step_m) {
+  const auto step = static_cast<float>(seam_step_m);
+  const auto flat = static_cast<float>(seam_step_m * kSeamFlatFraction);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const int rows = height_m.rows, cols = height_m.cols;
+  cv::Mat1f seam(height_m.size(), 0.0f);
+  for (int v = 0; v < rows; ++v) {  // horizontal pairs (u, u + 1)
+    const float* h = height_m.ptr<float>(v);
+    float* s = seam.ptr<float>(v);
+    for (int u = 0; u + 1 < cols; ++u) {
+      const float level = SeamLevel(u > 0 ? h[u - 1] : nan, h[u], h[u + 1],
+                                    u + 2 < cols ? h[u + 2] : nan, step, flat);
+      s[u] = std::max(s[u], level);
+      s[u + 1] = std::max(s[u + 1], level);
+    }
+  }
+  for (int v = 0; v + 1 < rows; ++v) {  // vertical pairs (v, v + 1)
+    const float* above = v > 0 ? height_m.ptr<float>(v - 1) : nullptr;
+    const float* h0 = height_m.ptr<float>(v);
+    const float* h1 = height_m.ptr<float>(v + 1);
+    const float* below = v + 2 < rows ? height_m.ptr<float>(v + 2) : nullptr;
+    float* s0 = seam.ptr<float>(v);
+    float* s1 = seam.ptr<float>(v + 1);
+    for (int u = 0; u < cols; ++u) {
+      if (!(std::abs(h0[u] - h1[u]) >= step)) continue;
+      const float level = SeamLevel(above ? above[u] : nan, h0[u], h1[u],
+                                    below ? below[u] : nan, step, flat);
+      s0[u] = std::max(s0[u], level);
+      s1[u] = std::max(s1[u], level);
+    }
+  }
+  return seam;
+}
+
+std::array<double, 3> PointOnRayAtHeight(const Camera& camera, const Plane& floor, double u_px,
+                                         double v_px, double height_m) {
+  const double rx = (u_px - camera.cx) / camera.fx;
+  const double ry = (v_px - camera.cy) / camera.fy;
+  const double n_dot_r = floor.n[0] * rx + floor.n[1] * ry + floor.n[2];
+  const double t = (height_m - floor.d) / n_dot_r;  // n . (t r) + d = height
+  return {t * rx, t * ry, t};
+}
+
+std::array<double, 4> QuaternionAboutZ(double angle_rad) {
+  return {std::cos(angle_rad / 2), 0.0, 0.0, std::sin(angle_rad / 2)};
+}
+
+}  // namespace softgrasp::core::fge_detail

@@ -1,0 +1,111 @@
+#pragma once
+/// Internal to softgrasp_core: geometry shared by the fast and the reference FGE and by the grasp
+/// search (slices, template rasterisation, seams, poses). See docs/fge.md for the formulas.
+
+#include <array>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "service/core/fge.h"
+
+namespace softgrasp::core::fge_detail {
+
+/// A_t must cover at least this fraction of the closing region (T_t) for a candidate.
+inline constexpr double kMinContactFraction = 0.05;
+/// Slip: the surface above the fingertips inside the closing region may cover at most this many
+/// times A_t (the thesis drops candidates whose contact and collision areas differ too much: a
+/// surface that widens below the contact height pushes the fingers up).
+inline constexpr int kSlipRatioNum = 3;
+inline constexpr int kSlipRatioDen = 2;
+inline constexpr double kMaxSlipRatio = static_cast<double>(kSlipRatioNum) / kSlipRatioDen;
+/// Graspability blur: sigma = kBlurSigmaPerOpening * opening (pixels at the slice).
+inline constexpr double kBlurSigmaPerOpening = 0.5;
+/// The fast path works at 1/s resolution with s chosen so fingers stay this thick (pixels).
+inline constexpr double kMinFingerThicknessWorkPx = 2.5;
+inline constexpr int kMaxWorkScale = 4;
+/// The top slice sits this far below the N-th highest surface point (N = min_object_area_px).
+inline constexpr double kTopSliceMarginM = 0.001;
+/// The fast path encodes up to 126 threshold levels (3 per slice).
+inline constexpr int kMaxHeightSteps = 40;
+
+/// One contact height: the fingers close on the surface above `contact_height_m`; their tips
+/// reach down to `tip_height_m` = contact height - grip depth; the palm is finger_length above the
+/// tips, and nothing under the gripper footprint may reach it. Heights above the floor.
+struct Slice {
+  int index = 0;  ///< 0 = highest
+  double contact_height_m = 0;
+  double tip_height_m = 0;
+  double palm_height_m = 0;
+};
+
+/// Gripper sizes in pixels at one image scale.
+struct GripperPx {
+  double opening_px = 0;
+  double finger_width_px = 0;
+  double finger_thickness_px = 0;
+};
+
+/// The templates rasterised on a pixel grid aligned with the closing axis (pixel-centre rule):
+/// offsets (a along the closing axis, b across) with |a| <= opening/2 and |b| <= width/2 form the
+/// closing region T_t; opening/2 < |a| <= opening/2 + thickness, |b| <= width/2 the fingers T_c.
+struct TemplateBoxes {
+  int contact_half_len = 0;  ///< A: T_t spans a in [-A, A]
+  int finger_outer = 0;      ///< F: a finger spans |a| in [A + 1, F]
+  int half_width = 0;        ///< B: both span b in [-B, B]
+  int ContactArea() const { return (2 * contact_half_len + 1) * (2 * half_width + 1); }
+};
+
+/// Throws std::invalid_argument on a non-physical gripper, bad FGE parameters or intrinsics.
+void CheckInputs(const Camera& camera, const Gripper& gripper, const FgeParams& params);
+
+/// Camera distance of the floor along the optical axis: -d / n_z (NaN if it does not cross it).
+double FloorDepthOnAxisM(const Plane& floor);
+
+/// Pixels per metre for a surface at `height_m` above the floor: fx / (floor depth on axis - h).
+double PxPerMetre(const Plane& floor, const Camera& camera, double height_m);
+
+GripperPx GripperAtScale(const Gripper& gripper, double px_per_m);
+TemplateBoxes RasteriseTemplates(const GripperPx& gripper_px);
+
+/// Smallest A_t for a candidate: max(1, ceil(kMinContactFraction * area of T_t)).
+int MinContactCount(int contact_area_px);
+double BlurSigmaPx(const GripperPx& gripper_px);
+/// Odd Gaussian kernel size covering +-3 sigma.
+int GaussianKernelSize(double sigma_px);
+
+/// The slices the multi-height search visits and the surfaces it may grasp.
+struct SliceSearch {
+  std::vector<Slice> slices;  ///< highest first; empty when nothing is tall enough
+  /// 255 where a surface may be a contact surface (part of a free object); elsewhere surfaces
+  /// are obstacles only (bin walls, robot parts, objects cut by the image border).
+  cv::Mat1b graspable;
+};
+
+/// Slices the multi-height search visits, highest first, and the graspable surfaces.
+/// The top slice h0 lies kTopSliceMarginM below the min_object_area_px-th highest pixel of the
+/// free objects: connected regions above a level that do not touch the image border, at the
+/// lowest level (floor_clearance + grip_depth, + k height steps) where such objects exist. So
+/// bin walls, robot parts reaching into the image and objects cut by the frame do not set it.
+/// If there is no free object at any level, all pixels count and all are graspable. Slices step down by height_step_m;
+/// a step that would put the fingertips under floor_clearance_m is replaced by a last slice with
+/// the tips exactly at the clearance (low objects keep a grasp at their base).
+SliceSearch SearchSlices(const cv::Mat1f& height_m, const Gripper& gripper,
+                         const FgeParams& params);
+Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& params,
+              int index = 0);
+
+/// Seam levels: for every pair of 4-neighbours whose heights differ by >= seam_step_m and whose
+/// lower pixel continues flat away from the step (next pixel within seam_step_m / 2; this
+/// excludes walls seen edge-on), both pixels get the lower of the two heights (max over their
+/// pairs); 0 elsewhere. A seam whose both sides reach above a level t lies at a pixel iff its
+/// seam level is > t.
+cv::Mat1f SeamLevels(const cv::Mat1f& height_m, double seam_step_m);
+
+/// Grasp point: the centre pixel's ray meets the plane `height_m` above the floor.
+std::array<double, 3> PointOnRayAtHeight(const Camera& camera, const Plane& floor, double u_px,
+                                         double v_px, double height_m);
+/// Rotation about the camera z axis by angle_rad, as (w, x, y, z).
+std::array<double, 4> QuaternionAboutZ(double angle_rad);
+
+}  // namespace softgrasp::core::fge_detail

@@ -1,0 +1,236 @@
+// Mesh validity checks: sorted half-edges for the edge checks, union-find for fans and pieces.
+#include "service/mesh/mesh_check.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstdint>
+#include <numeric>
+#include <string>
+
+namespace softgrasp::mesh {
+namespace {
+
+class UnionFind {
+ public:
+  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+  std::size_t Find(std::size_t x) {
+    while (parent_[x] != x) {
+      parent_[x] = parent_[parent_[x]];
+      x = parent_[x];
+    }
+    return x;
+  }
+  void Union(std::size_t a, std::size_t b) {
+    a = Find(a);
+    b = Find(b);
+    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
+  }
+
+ private:
+  std::vector<std::size_t> parent_;
+};
+
+struct HalfEdge {
+  std::uint64_t key;  ///< undirected edge: min << 32 | max
+  int from;
+  int to;
+  int face;
+};
+
+std::uint64_t EdgeKey(int a, int b) {
+  const auto lo = static_cast<std::uint64_t>(std::min(a, b));
+  const auto hi = static_cast<std::uint64_t>(std::max(a, b));
+  return lo << 32 | hi;
+}
+
+std::string EdgeName(const HalfEdge& h) {
+  return std::to_string(std::min(h.from, h.to)) + "-" + std::to_string(std::max(h.from, h.to));
+}
+
+void AddProblem(MeshReport& r, int count, const std::string& what, const std::string& example) {
+  if (count == 0) return;
+  std::string line = std::to_string(count) + " " + what;
+  if (!example.empty()) line += " (first: " + example + ")";
+  r.problems.push_back(std::move(line));
+}
+
+}  // namespace
+
+MeshReport CheckMesh(const TriangleMesh& mesh) {
+  MeshReport r;
+  const int nv = static_cast<int>(mesh.vertices.size());
+  const std::size_t nf = mesh.faces.size();
+
+  // Indices first: nothing else is meaningful without them.
+  int bad_index_faces = 0;
+  std::string first_bad;
+  for (std::size_t f = 0; f < nf; ++f) {
+    for (const int v : mesh.faces[f]) {
+      if (v < 0 || v >= nv) {
+        if (bad_index_faces++ == 0) first_bad = "face " + std::to_string(f);
+        break;
+      }
+    }
+  }
+  r.indices_valid = bad_index_faces == 0 && mesh.vertices.size() <= 0x7fffffffu;
+  if (!r.indices_valid) {
+    AddProblem(r, bad_index_faces, "faces with a vertex index out of range", first_bad);
+    return r;
+  }
+  if (nf == 0) {
+    r.problems.push_back("the mesh has no faces");
+    return r;
+  }
+
+  std::string example;
+  for (int v = 0; v < nv; ++v) {
+    const auto& p = mesh.vertices[static_cast<std::size_t>(v)];
+    if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) {
+      if (r.num_nonfinite_vertices++ == 0) example = "vertex " + std::to_string(v);
+    }
+  }
+  AddProblem(r, r.num_nonfinite_vertices, "vertices with a non-finite coordinate", example);
+
+  // Half-edges of non-degenerate faces, grouped by undirected edge.
+  std::vector<HalfEdge> half;
+  half.reserve(3 * nf);
+  std::vector<char> used(static_cast<std::size_t>(nv), 0);
+  example.clear();
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto& t = mesh.faces[f];
+    for (const int v : t) used[static_cast<std::size_t>(v)] = 1;
+    if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) {
+      if (r.num_degenerate_faces++ == 0) example = "face " + std::to_string(f);
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[static_cast<std::size_t>(k)], b = t[static_cast<std::size_t>((k + 1) % 3)];
+      half.push_back({EdgeKey(a, b), a, b, static_cast<int>(f)});
+    }
+  }
+  AddProblem(r, r.num_degenerate_faces, "degenerate faces (a repeated vertex)", example);
+  std::sort(half.begin(), half.end(), [](const HalfEdge& x, const HalfEdge& y) {
+    return x.key != y.key ? x.key < y.key : x.face < y.face;
+  });
+
+  // Corners (face, local vertex) of the same vertex are joined across 2-face edges: each
+  // vertex must end up with one group (one fan).
+  UnionFind corners(3 * nf);
+  auto corner = [&](int face, int v) {
+    const auto& t = mesh.faces[static_cast<std::size_t>(face)];
+    const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+    return static_cast<std::size_t>(face) * 3 + static_cast<std::size_t>(k);
+  };
+  std::string ex_boundary, ex_nonmanifold, ex_orient;
+  int num_edges = 0;
+  for (std::size_t i = 0; i < half.size();) {
+    std::size_t j = i;
+    int forward = 0;
+    while (j < half.size() && half[j].key == half[i].key) {
+      if (half[j].from < half[j].to) ++forward;
+      ++j;
+    }
+    const int count = static_cast<int>(j - i);
+    ++num_edges;
+    if (count % 2 == 1) {
+      if (r.num_boundary_edges++ == 0) ex_boundary = EdgeName(half[i]);
+    }
+    if (count > 2) {
+      if (r.num_nonmanifold_edges++ == 0) ex_nonmanifold = EdgeName(half[i]);
+    }
+    if (std::abs(2 * forward - count) > 1) {  // as balanced as the count allows
+      if (r.num_misoriented_edges++ == 0) ex_orient = EdgeName(half[i]);
+    }
+    if (count == 2) {
+      const HalfEdge& e0 = half[i];
+      const HalfEdge& e1 = half[i + 1];
+      corners.Union(corner(e0.face, e0.from), corner(e1.face, e0.from));
+      corners.Union(corner(e0.face, e0.to), corner(e1.face, e0.to));
+    }
+    i = j;
+  }
+  AddProblem(r, r.num_boundary_edges, "boundary edges with an odd number of faces: not closed",
+             ex_boundary);
+  AddProblem(r, r.num_nonmanifold_edges, "edges with more than two faces: not 2-manifold",
+             ex_nonmanifold);
+  AddProblem(r, r.num_misoriented_edges,
+             "edges not traversed once in each direction: inconsistent orientation", ex_orient);
+
+  // Fans per vertex.
+  std::vector<std::size_t> fan_root(static_cast<std::size_t>(nv), SIZE_MAX);
+  std::vector<char> extra_fan(static_cast<std::size_t>(nv), 0);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto& t = mesh.faces[f];
+    if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto v = static_cast<std::size_t>(t[k]);
+      const std::size_t root = corners.Find(3 * f + k);
+      if (fan_root[v] == SIZE_MAX) {
+        fan_root[v] = root;
+      } else if (fan_root[v] != root) {
+        extra_fan[v] = 1;
+      }
+    }
+  }
+  example.clear();
+  for (int v = 0; v < nv; ++v) {
+    if (extra_fan[static_cast<std::size_t>(v)] && r.num_nonmanifold_vertices++ == 0) {
+      example = "vertex " + std::to_string(v);
+    }
+  }
+  AddProblem(r, r.num_nonmanifold_vertices,
+             "vertices whose faces form several fans: not 2-manifold", example);
+
+  // Pieces: vertices joined by faces.
+  UnionFind pieces(static_cast<std::size_t>(nv));
+  for (const auto& t : mesh.faces) {
+    pieces.Union(static_cast<std::size_t>(t[0]), static_cast<std::size_t>(t[1]));
+    pieces.Union(static_cast<std::size_t>(t[1]), static_cast<std::size_t>(t[2]));
+  }
+  int referenced = 0;
+  example.clear();
+  for (int v = 0; v < nv; ++v) {
+    const auto sv = static_cast<std::size_t>(v);
+    if (!used[sv]) {
+      if (r.num_unreferenced_vertices++ == 0) example = "vertex " + std::to_string(v);
+      continue;
+    }
+    ++referenced;
+    if (pieces.Find(sv) == sv) ++r.num_components;
+  }
+  AddProblem(r, r.num_unreferenced_vertices, "unreferenced vertices", example);
+  if (r.num_components > 1) {
+    r.problems.push_back(std::to_string(r.num_components) + " separate pieces: not connected");
+  }
+
+  // Signed volume, relative to the first vertex for precision.
+  const auto& o = mesh.vertices[static_cast<std::size_t>(mesh.faces[0][0])];
+  double six_volume = 0.0;
+  for (const auto& t : mesh.faces) {
+    const auto& p = mesh.vertices[static_cast<std::size_t>(t[0])];
+    const auto& q = mesh.vertices[static_cast<std::size_t>(t[1])];
+    const auto& s = mesh.vertices[static_cast<std::size_t>(t[2])];
+    const double a[3] = {p[0] - o[0], p[1] - o[1], p[2] - o[2]};
+    const double b[3] = {q[0] - o[0], q[1] - o[1], q[2] - o[2]};
+    const double c[3] = {s[0] - o[0], s[1] - o[1], s[2] - o[2]};
+    six_volume += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+                  a[2] * (b[0] * c[1] - b[1] * c[0]);
+  }
+  r.volume = six_volume / 6.0;
+
+  r.closed = r.num_boundary_edges == 0;
+  r.edge_manifold = r.num_boundary_edges == 0 && r.num_nonmanifold_edges == 0;
+  r.vertex_manifold = r.num_nonmanifold_vertices == 0;
+  r.connected = r.num_components == 1;
+  r.consistently_oriented = r.num_misoriented_edges == 0;
+  r.outward = r.volume > 0.0 && std::isfinite(r.volume);
+  if (!r.outward) {
+    r.problems.push_back("signed volume " + std::to_string(r.volume) +
+                         " is not positive: faces point inward or the mesh is flat");
+  }
+  r.euler_characteristic = referenced - num_edges + static_cast<int>(nf);
+  return r;
+}
+
+}  // namespace softgrasp::mesh

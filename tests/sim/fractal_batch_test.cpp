@@ -1,0 +1,82 @@
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "service/mesh/mesh_check.h"
+#include "service/mesh/mesh_io.h"
+#include "sim/fractal_batch.h"
+
+namespace softgrasp::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+fs::path FreshDir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("softgrasp_" + name);
+  fs::remove_all(dir);
+  return dir;
+}
+
+TEST(FractalBatchTest, WritesClosedMeshesAndAnIndex) {
+  FractalBatchParams params;
+  params.count = 4;
+  params.seed = 100;
+  params.model.num_points = 3000;
+  params.format = mesh::MeshFormat::kPlyBinary;
+  params.out_dir = FreshDir("batch");
+  int last_progress = 0;
+  auto index = GenerateFractalBatch(params, [&](int done) { last_progress = done; });
+  ASSERT_TRUE(index.ok()) << index.error().message;
+  EXPECT_EQ(last_progress, 4);
+  const auto doc = nlohmann::json::parse(Slurp(index.value()));
+  ASSERT_EQ(doc["models"].size(), 4u);
+  for (int i = 0; i < 4; ++i) {
+    const auto& entry = doc["models"][static_cast<std::size_t>(i)];
+    EXPECT_EQ(entry["seed"], 100 + i);
+    auto read = mesh::ReadMesh(Slurp(params.out_dir / entry["file"].get<std::string>()));
+    ASSERT_TRUE(read.ok()) << read.error().message;
+    EXPECT_EQ(read.value().faces.size(), entry["faces"].get<std::size_t>());
+    EXPECT_TRUE(mesh::CheckMesh(read.value()).ok());
+  }
+}
+
+TEST(FractalBatchTest, BadParametersAreErrors) {
+  FractalBatchParams params;
+  params.out_dir = FreshDir("bad");
+  params.model.sigma = 0.9;
+  EXPECT_EQ(GenerateFractalBatch(params).error().field, "sigma");
+  params.model.sigma = 0.05;
+  params.count = 0;
+  EXPECT_EQ(GenerateFractalBatch(params).error().field, "count");
+}
+
+// The command line, run as a process: same seed, same bytes; bad flags exit non-zero.
+TEST(SimCliTest, FractalsCommandIsDeterministic) {
+  const fs::path a = FreshDir("cli_a"), b = FreshDir("cli_b");
+  const std::string sim = SOFTGRASP_SIM_EXE;
+  for (const auto& dir : {a, b}) {
+    const std::string cmd = sim + " fractals --count 3 --seed 5 --alpha 0.3 --points 3000 --format stl --out " +
+                            dir.string() + " > /dev/null";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  }
+  for (const char* file : {"index.json", "fractal_5.stl", "fractal_6.stl", "fractal_7.stl"}) {
+    ASSERT_TRUE(fs::exists(a / file)) << file;
+    EXPECT_EQ(Slurp(a / file), Slurp(b / file)) << file;
+  }
+  EXPECT_NE(std::system((sim + " fractals --count 2 2> /dev/null").c_str()), 0);
+  EXPECT_NE(std::system((sim + " fractals --count x --out /tmp/x 2> /dev/null").c_str()), 0);
+  EXPECT_NE(std::system((sim + " nonsense 2> /dev/null").c_str()), 0);
+}
+
+}  // namespace
+}  // namespace softgrasp::sim
