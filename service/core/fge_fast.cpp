@@ -207,8 +207,12 @@ namespace {
 // Integral images of the canvas' binary images over `region`, each computed once per angle.
 class IntegralCache {
  public:
-  IntegralCache(const FastFge::Canvas& canvas, const cv::Rect& region, FastFge::Workspace& ws)
-      : canvas_(canvas), region_(region), ws_(ws) {}
+  /// `next_slot`: the next free integral buffer of the workspace, shared by all caches of an angle.
+  IntegralCache(const FastFge::Canvas& canvas, const cv::Rect& region, FastFge::Workspace& ws,
+                std::size_t& next_slot)
+      : canvas_(canvas), region_(region), ws_(ws), next_slot_(next_slot) {}
+
+  const cv::Rect& region() const { return region_; }
 
   /// Any surface above level j (obstacles; the outside of the image included).
   cv::Mat1i ObstaclesAbove(int level) { return Above(Kind::kObstacle, level); }
@@ -244,7 +248,7 @@ class IntegralCache {
       ThresholdMasked(src.ptr<std::uint16_t>(y), binary.ptr<std::uint8_t>(y), src.cols, mask,
                       static_cast<std::uint16_t>(above));
     }
-    const std::size_t slot = entries_.size();
+    const std::size_t slot = next_slot_++;
     if (ws_.integrals.size() <= slot) ws_.integrals.resize(slot + 1);
     cv::Mat1i sums = View(ws_.integrals[slot], region_.size() + cv::Size(1, 1));
     cv::integral(binary, sums, CV_32S);
@@ -255,6 +259,7 @@ class IntegralCache {
   const FastFge::Canvas& canvas_;
   cv::Rect region_;
   FastFge::Workspace& ws_;
+  std::size_t& next_slot_;
   std::vector<Entry> entries_;  // a handful of levels: a vector beats a map
 };
 
@@ -373,11 +378,19 @@ std::vector<cv::Rect> MergeRects(std::vector<cv::Rect> rects, int gap) {
   return rects;
 }
 
-// Canvas pixels that can be candidates at one slice: near objects reaching its contact level,
-// grown by the closing region; clusters closer than the blur radius form one rectangle.
-std::vector<cv::Rect> SliceRois(const FastFge::Canvas& canvas,
-                                const std::vector<FastFge::Object>& objects,
-                                const FastFge::SliceWork& w) {
+// Where one slice is evaluated: box sums run on `rois` (objects reaching the slice's contact
+// level, grown by the closing region; overlapping ones merged), the blur on `clusters` (rois
+// closer than the blur radius merged: the blur of one cluster never reaches another).
+int BlurRadius(const FastFge::SliceWork& w);
+
+struct SliceRegions {
+  std::vector<cv::Rect> rois;
+  std::vector<cv::Rect> clusters;
+};
+
+SliceRegions RegionsOfSlice(const FastFge::Canvas& canvas,
+                            const std::vector<FastFge::Object>& objects,
+                            const FastFge::SliceWork& w) {
   std::vector<cv::Rect> rois;
   const int a = w.boxes.contact_half_len, b = w.boxes.half_width;
   for (std::size_t i = 0; i < objects.size(); ++i) {
@@ -386,9 +399,10 @@ std::vector<cv::Rect> SliceRois(const FastFge::Canvas& canvas,
     const cv::Rect roi = cv::Rect(r.x - a, r.y - b, r.width + 2 * a, r.height + 2 * b) & canvas.safe;
     if (!roi.empty()) rois.push_back(roi);
   }
-  const int d = w.blur_downscale;
-  const int blur_radius = d * (GaussianKernelSize(w.blur_sigma_px / d) / 2 + 1);
-  return MergeRects(std::move(rois), blur_radius);
+  SliceRegions regions;
+  regions.rois = MergeRects(std::move(rois), 0);
+  regions.clusters = MergeRects(regions.rois, BlurRadius(w));
+  return regions;
 }
 
 // Bounding box of the non-zero pixels of rows [y0, y1] of `map` (rows known to hold some).
@@ -420,6 +434,35 @@ TemplateBoxes LargestBoxes(const std::vector<FastFge::SliceWork>& work) {
     largest.half_width = std::max(largest.half_width, w.boxes.half_width);
   }
   return largest;
+}
+
+// Axis-aligned boxes (canvas pixels) of the objects' crop boxes turned into the canvas: the
+// corners (pixel edges) are transformed and the result is rounded outwards.
+std::vector<cv::Rect> RotatedBoxes(const std::vector<FastFge::Object>& objects,
+                                   const cv::Matx23d& t) {
+  std::vector<cv::Rect> boxes;
+  for (const FastFge::Object& o : objects) {
+    const cv::Rect& r = o.crop_box;
+    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    for (const cv::Point2d corner : {cv::Point2d(r.x - 0.5, r.y - 0.5),
+                                     cv::Point2d(r.x + r.width - 0.5, r.y - 0.5),
+                                     cv::Point2d(r.x - 0.5, r.y + r.height - 0.5),
+                                     cv::Point2d(r.x + r.width - 0.5, r.y + r.height - 0.5)}) {
+      const double x = t(0, 0) * corner.x + t(0, 1) * corner.y + t(0, 2);
+      const double y = t(1, 0) * corner.x + t(1, 1) * corner.y + t(1, 2);
+      x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+    }
+    boxes.emplace_back(cv::Point(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0))),
+                       cv::Point(static_cast<int>(std::ceil(x1)) + 1,
+                                 static_cast<int>(std::ceil(y1)) + 1));
+  }
+  return boxes;
+}
+
+// Candidate centres whose box sums stay inside a canvas of `size`.
+cv::Rect SafeRect(cv::Size size, const TemplateBoxes& largest) {
+  const int mx = largest.finger_outer + 1, my = largest.half_width + 1;
+  return {mx, my, size.width - 2 * mx, size.height - 2 * my};
 }
 
 // Connected graspable regions of `contact` (crop level words) above `level`.
@@ -523,7 +566,7 @@ FastFge::FastFge(const Scene& scene, const Camera& camera, const Gripper& grippe
 
 FastFge::~FastFge() = default;
 
-FastFge::Canvas FastFge::MakeCanvas(double angle_rad) {
+FastFge::Canvas FastFge::MakeCanvas(double angle_rad, bool whole) {
   const double c = std::cos(angle_rad);
   const double s = std::sin(angle_rad);
   const double w = crop_.width;
@@ -533,33 +576,35 @@ FastFge::Canvas FastFge::MakeCanvas(double angle_rad) {
                       static_cast<int>(std::ceil(w * std::abs(s) + h * std::abs(c))) + 2 * m);
   const cv::Point2d p((w - 1) / 2, (h - 1) / 2);                          // crop centre
   const cv::Point2d q((size.width - 1) / 2.0, (size.height - 1) / 2.0);  // canvas centre
-  Canvas canvas;
   // canvas = R(-angle) (crop - p) + q: the closing axis becomes +x.
-  canvas.canvas_from_crop =
-      cv::Matx23d(c, s, q.x - c * p.x - s * p.y, -s, c, q.y + s * p.x - c * p.y);
-  canvas.crop_from_canvas =
-      cv::Matx23d(c, -s, p.x - c * q.x + s * q.y, s, c, p.y - s * q.x - c * q.y);
-  canvas.levels = View(ws_->levels, size);
-  cv::warpAffine(levels_, canvas.levels, canvas.canvas_from_crop, size, cv::INTER_NEAREST,
-                 cv::BORDER_CONSTANT, 0);
-  canvas.safe = cv::Rect(m, m, size.width - 2 * m, size.height - 2 * m);
-  // Object boxes: the rotated box's corners (pixel edges), rounded outwards.
-  for (const Object& o : objects_) {
-    const cv::Rect& r = o.crop_box;
-    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-    for (const cv::Point2d corner : {cv::Point2d(r.x - 0.5, r.y - 0.5),
-                                     cv::Point2d(r.x + r.width - 0.5, r.y - 0.5),
-                                     cv::Point2d(r.x - 0.5, r.y + r.height - 0.5),
-                                     cv::Point2d(r.x + r.width - 0.5, r.y + r.height - 0.5)}) {
-      const cv::Matx23d& t = canvas.canvas_from_crop;
-      const double x = t(0, 0) * corner.x + t(0, 1) * corner.y + t(0, 2);
-      const double y = t(1, 0) * corner.x + t(1, 1) * corner.y + t(1, 2);
-      x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
-    }
-    const cv::Point tl(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0)));
-    const cv::Point br(static_cast<int>(std::ceil(x1)) + 1, static_cast<int>(std::ceil(y1)) + 1);
-    canvas.objects.emplace_back(tl, br);
+  const cv::Matx23d canvas_from_crop(c, s, q.x - c * p.x - s * p.y, -s, c,
+                                     q.y + s * p.x - c * p.y);
+  std::vector<cv::Rect> objects = RotatedBoxes(objects_, canvas_from_crop);
+  // Only the objects' neighbourhood is read: grow their union by the reach of the box sums (the
+  // same on both axes, so that the 90-degree turn of this canvas is valid as well).
+  cv::Rect region(cv::Point(0, 0), size);
+  const TemplateBoxes largest = LargestBoxes(work_);
+  if (!whole && !objects.empty()) {
+    const int reach = std::max(largest.contact_half_len + largest.finger_outer + 1,
+                               2 * largest.half_width + 1);
+    cv::Rect all = objects.front();
+    for (const cv::Rect& r : objects) all |= r;
+    region = cv::Rect(all.x - reach, all.y - reach, all.width + 2 * reach, all.height + 2 * reach);
   }
+  Canvas canvas;
+  canvas.canvas_from_crop = canvas_from_crop;
+  canvas.canvas_from_crop(0, 2) -= region.x;
+  canvas.canvas_from_crop(1, 2) -= region.y;
+  canvas.crop_from_canvas = cv::Matx23d(c, -s, 0, s, c, 0);
+  const cv::Point2d origin(region.x - q.x, region.y - q.y);  // canvas pixel (0, 0) minus q
+  canvas.crop_from_canvas(0, 2) = p.x + c * origin.x - s * origin.y;
+  canvas.crop_from_canvas(1, 2) = p.y + s * origin.x + c * origin.y;
+  canvas.levels = View(ws_->levels, region.size());
+  cv::warpAffine(levels_, canvas.levels, canvas.canvas_from_crop, region.size(),
+                 cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  for (cv::Rect& r : objects) r -= region.tl();
+  canvas.objects = std::move(objects);
+  canvas.safe = SafeRect(region.size(), largest);
   return canvas;
 }
 
@@ -579,8 +624,7 @@ FastFge::Canvas FastFge::TurnedCanvas(const Canvas& canvas) const {
                             canvas.crop_from_canvas(1, 1), canvas.crop_from_canvas(1, 2), 0, 0, 1);
   turned.canvas_from_crop = (turn * from_crop).get_minor<2, 3>(0, 0);
   turned.crop_from_canvas = (to_crop * unturn).get_minor<2, 3>(0, 0);
-  const int m = margin_px_;
-  turned.safe = cv::Rect(m, m, turned.levels.cols - 2 * m, turned.levels.rows - 2 * m);
+  turned.safe = SafeRect(turned.levels.size(), LargestBoxes(work_));
   for (const cv::Rect& r : canvas.objects) {
     turned.objects.emplace_back(r.y, static_cast<int>(w1) + 1 - r.x - r.width, r.height, r.width);
   }
@@ -682,18 +726,26 @@ void CellPeaks(const cv::Mat1f& candidate, const cv::Mat1f& small, const cv::Mat
   }
 }
 
-// Candidates, graspability and peaks of one slice inside one ROI (canvas pixels).
-void PeaksInRoi(const SliceIntegrals& in, const FastFge::SliceWork& w, const cv::Rect& roi,
-                FastFge::Workspace& ws, std::vector<CanvasPeak>& peaks) {
-  cv::Mat1f candidate = View(ws.candidate, roi.size());
-  int first_row = -1, last_row = -1;
-  for (int y = 0; y < roi.height; ++y) {
-    if (CandidateRow(in, w, roi.y + y, roi.x, roi.width, ws, candidate.ptr<float>(y)) > 0) {
-      if (first_row < 0) first_row = y;
-      last_row = y;
+// Candidates, graspability and peaks of one slice inside one cluster (canvas pixels): box sums
+// on the rois inside it, zeros elsewhere.
+void PeaksInCluster(const SliceIntegrals& in, const FastFge::SliceWork& w, const cv::Rect& cluster,
+                    const std::vector<cv::Rect>& rois, FastFge::Workspace& ws,
+                    std::vector<CanvasPeak>& peaks) {
+  cv::Mat1f candidate = View(ws.candidate, cluster.size());
+  candidate.setTo(0);
+  int first_row = cluster.height, last_row = -1;
+  for (const cv::Rect& roi : rois) {
+    if ((roi & cluster) != roi) continue;  // another cluster's
+    for (int y = 0; y < roi.height; ++y) {
+      const int row = roi.y - cluster.y + y;
+      float* out = candidate.ptr<float>(row) + (roi.x - cluster.x);
+      if (CandidateRow(in, w, roi.y + y, roi.x, roi.width, ws, out) > 0) {
+        first_row = std::min(first_row, row);
+        last_row = std::max(last_row, row);
+      }
     }
   }
-  if (first_row < 0) return;
+  if (last_row < 0) return;
   // Blur only the candidates' bounding box (sides divisible by the cell size).
   const cv::Rect box = NonZeroBox(candidate, first_row, last_row);
   const cv::Rect padded = RoundUp(box, w.blur_downscale);
@@ -702,7 +754,37 @@ void PeaksInRoi(const SliceIntegrals& in, const FastFge::SliceWork& w, const cv:
   candidate(box).copyTo(blur_input(cv::Rect(cv::Point(0, 0), box.size())));
   cv::Mat1f small, blurred;
   BlurSmall(blur_input, w.blur_sigma_px, w.blur_downscale, ws, small, blurred);
-  CellPeaks(blur_input, small, blurred, w.blur_downscale, roi.tl() + box.tl(), peaks);
+  CellPeaks(blur_input, small, blurred, w.blur_downscale, cluster.tl() + box.tl(), peaks);
+}
+
+int BlurRadius(const FastFge::SliceWork& w) {
+  const int d = w.blur_downscale;
+  return d * (GaussianKernelSize(w.blur_sigma_px / d) / 2 + 1);
+}
+
+int MaxBlurRadius(const std::vector<FastFge::SliceWork>& work) {
+  int radius = 0;
+  for (const FastFge::SliceWork& w : work) radius = std::max(radius, BlurRadius(w));
+  return radius;
+}
+
+// Every slice's clusters (RegionsOfSlice) lie inside one of these groups.
+std::vector<cv::Rect> ObjectGroups(const FastFge::Canvas& canvas, const TemplateBoxes& largest,
+                                   int blur_radius) {
+  std::vector<cv::Rect> grown;
+  const int a = largest.contact_half_len, b = largest.half_width;
+  for (const cv::Rect& r : canvas.objects) {
+    const cv::Rect roi = cv::Rect(r.x - a, r.y - b, r.width + 2 * a, r.height + 2 * b) & canvas.safe;
+    if (!roi.empty()) grown.push_back(roi);
+  }
+  return MergeRects(std::move(grown), blur_radius);
+}
+
+IntegralCache& CacheHolding(std::vector<IntegralCache>& caches, const cv::Rect& cluster) {
+  for (IntegralCache& cache : caches) {
+    if ((cache.region() & cluster) == cluster) return cache;
+  }
+  CV_Error(cv::Error::StsInternal, "FGE: a slice cluster outside every object group");
 }
 
 }  // namespace
@@ -711,33 +793,37 @@ std::vector<std::vector<LocalMaximum>> FastFge::LocalMaxima(double angle_rad) {
   std::vector<std::vector<LocalMaximum>> result(slices_.size());
   if (crop_.empty()) return result;
   const bool turn = last_canvas_ && std::abs(angle_rad - last_angle_rad_ - kHalfPi) < 1e-9;
-  const Canvas canvas = turn ? TurnedCanvas(*last_canvas_) : MakeCanvas(angle_rad);
+  const Canvas canvas = turn ? TurnedCanvas(*last_canvas_) : MakeCanvas(angle_rad, false);
   if (turn) {
     last_canvas_.reset();
   } else {
     last_canvas_ = std::make_unique<Canvas>(canvas);
     last_angle_rad_ = angle_rad;
   }
-  // Integrals cover every object's ROI plus the reach of the box sums.
+  // Objects whose neighbourhoods (largest template, largest blur radius) are close form one
+  // group; each group has its own integral images, over the group grown by the box sums' reach.
   const TemplateBoxes largest = LargestBoxes(work_);
-  cv::Rect objects;
-  for (const cv::Rect& r : canvas.objects) objects |= r;
-  const int reach_x = largest.contact_half_len + largest.finger_outer + 1;
-  const int reach_y = 2 * largest.half_width + 1;
-  const cv::Rect region = cv::Rect(objects.x - reach_x, objects.y - reach_y,
-                                   objects.width + 2 * reach_x, objects.height + 2 * reach_y) &
-                          cv::Rect(cv::Point(0, 0), canvas.levels.size());
-  IntegralCache cache(canvas, region, *ws_);
+  std::vector<IntegralCache> caches;
+  std::size_t next_slot = 0;
+  for (const cv::Rect& group : ObjectGroups(canvas, largest, MaxBlurRadius(work_))) {
+    const int reach_x = largest.finger_outer + 1, reach_y = largest.half_width + 1;
+    const cv::Rect region = cv::Rect(group.x - reach_x, group.y - reach_y,
+                                     group.width + 2 * reach_x, group.height + 2 * reach_y) &
+                            cv::Rect(cv::Point(0, 0), canvas.levels.size());
+    caches.emplace_back(canvas, region, *ws_, next_slot);
+  }
   const LevelLimits limits{max_level_, max_seam_level_, contact_is_obstacle_};
   std::vector<CanvasPeak> peaks;
   for (std::size_t i = 0; i < slices_.size(); ++i) {
     const SliceWork& w = work_[i];
     if (w.contact_level >= max_contact_level_) continue;  // nothing above the contact height
-    const std::vector<cv::Rect> rois = SliceRois(canvas, objects_, w);
-    if (rois.empty()) continue;
-    const SliceIntegrals in = IntegralsFor(w, cache, region.tl(), limits);
+    const SliceRegions regions = RegionsOfSlice(canvas, objects_, w);
     peaks.clear();
-    for (const cv::Rect& roi : rois) PeaksInRoi(in, w, roi, *ws_, peaks);
+    for (const cv::Rect& cluster : regions.clusters) {
+      IntegralCache& cache = CacheHolding(caches, cluster);
+      const SliceIntegrals in = IntegralsFor(w, cache, cache.region().tl(), limits);
+      PeaksInCluster(in, w, cluster, regions.rois, *ws_, peaks);
+    }
     for (const CanvasPeak& peak : peaks) {
       const cv::Point2d p = ToImage(canvas, peak.canvas_px);
       result[i].push_back({p.x, p.y, peak.score});
@@ -772,9 +858,10 @@ FgeMaps FastFge::Maps(double angle_rad, std::size_t slice_pos) {
   FgeMaps maps{cv::Mat1f::zeros(image_size_), cv::Mat1f::zeros(image_size_),
                cv::Mat1f::zeros(image_size_)};
   if (crop_.empty() || slice_pos >= slices_.size()) return maps;
-  const Canvas canvas = MakeCanvas(angle_rad);
+  const Canvas canvas = MakeCanvas(angle_rad, true);
   const cv::Rect whole(cv::Point(0, 0), canvas.levels.size());
-  IntegralCache cache(canvas, whole, *ws_);
+  std::size_t next_slot = 0;
+  IntegralCache cache(canvas, whole, *ws_, next_slot);
   const SliceWork& w = work_[slice_pos];
   const SliceIntegrals in = IntegralsFor(
       w, cache, whole.tl(), LevelLimits{max_level_, max_seam_level_, contact_is_obstacle_});

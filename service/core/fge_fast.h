@@ -65,7 +65,9 @@ class FastFge {
   struct Workspace;  // reusable buffers (fge_fast.cpp)
 
  private:
-  Canvas MakeCanvas(double angle_rad);
+  /// The rotated level words; `whole`: the whole rotated crop, else only the objects'
+  /// neighbourhood (what LocalMaxima reads).
+  Canvas MakeCanvas(double angle_rad, bool whole);
   Canvas TurnedCanvas(const Canvas& canvas) const;
   cv::Point2d ToImage(const Canvas& canvas, cv::Point2d canvas_px) const;
 

@@ -5,6 +5,13 @@
 // function of the triangulation alone.
 #include "service/mesh/alpha_shape.h"
 
+#include <CGAL/Delaunay_triangulation_3.h>
+#include <CGAL/Delaunay_triangulation_cell_base_3.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Triangulation_cell_base_with_info_3.h>
+#include <CGAL/Triangulation_data_structure_3.h>
+#include <CGAL/Triangulation_vertex_base_with_info_3.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -12,13 +19,6 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
-
-#include <CGAL/Delaunay_triangulation_3.h>
-#include <CGAL/Delaunay_triangulation_cell_base_3.h>
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Triangulation_cell_base_with_info_3.h>
-#include <CGAL/Triangulation_data_structure_3.h>
-#include <CGAL/Triangulation_vertex_base_with_info_3.h>
 
 #include "service/mesh/mesh_check.h"
 
@@ -146,7 +146,7 @@ class Solid {
   K::FT fill_alpha2_ = 0.0;
   std::vector<std::uint32_t> stamp_;  ///< visit marks for star searches
   std::uint32_t stamp_now_ = 0;
-  std::vector<int> local_index_;      ///< position of a cell in the current star, or -1
+  std::vector<int> local_index_;  ///< position of a cell in the current star, or -1
 };
 
 core::Result<Solid> Solid::Build(const std::vector<std::array<double, 3>>& points) {
@@ -198,10 +198,10 @@ core::Result<Solid> Solid::Build(const std::vector<std::array<double, 3>>& point
     const double a[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
     const double b[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
     const double d[3] = {p3[0] - p0[0], p3[1] - p0[1], p3[2] - p0[2]};
-    s.volume_[c] = std::abs(a[0] * (b[1] * d[2] - b[2] * d[1]) -
-                            a[1] * (b[0] * d[2] - b[2] * d[0]) +
-                            a[2] * (b[0] * d[1] - b[1] * d[0])) /
-                   6.0;
+    s.volume_[c] =
+        std::abs(a[0] * (b[1] * d[2] - b[2] * d[1]) - a[1] * (b[0] * d[2] - b[2] * d[0]) +
+                 a[2] * (b[0] * d[1] - b[1] * d[0])) /
+        6.0;
   }
   s.solid_.assign(next, 0);
   s.locked_.assign(next, 0);
@@ -223,8 +223,8 @@ void Solid::Classify(double alpha, double fill_alpha) {
       continue;
     }
     const auto& v = cell_v_[c];
-    solid_[c] = compare(points_[v[0]], points_[v[1]], points_[v[2]], points_[v[3]], alpha2) !=
-                CGAL::LARGER;
+    solid_[c] =
+        compare(points_[v[0]], points_[v[1]], points_[v[2]], points_[v[3]], alpha2) != CGAL::LARGER;
   }
 }
 
@@ -260,8 +260,8 @@ Solid::Pieces Solid::KeepLargestPiece() {
   Pieces result;
   if (piece_volume.empty()) return result;
   for (const double v : piece_volume) result.total_volume += v;
-  const auto best = static_cast<int>(
-      std::max_element(piece_volume.begin(), piece_volume.end()) - piece_volume.begin());
+  const auto best = static_cast<int>(std::max_element(piece_volume.begin(), piece_volume.end()) -
+                                     piece_volume.begin());
   result.largest_volume = piece_volume[static_cast<std::size_t>(best)];
   result.dropped = static_cast<int>(piece_volume.size()) - 1;
   if (result.dropped == 0) return result;
@@ -417,7 +417,8 @@ int Solid::GroupStar(const std::vector<std::uint32_t>& star, std::uint32_t v, bo
       const std::uint32_t cell = star[queue[q]];
       for (std::size_t k = 0; k < 4; ++k) {
         if (cell_v_[cell][k] == v) continue;
-        const int li = local_index_[cell_n_[cell][k]];  // neighbours through v's facets are in the star
+        const int li =
+            local_index_[cell_n_[cell][k]];  // neighbours through v's facets are in the star
         if (li < 0) continue;
         const auto sli = static_cast<std::size_t>(li);
         if (group[sli] < 0 && In(star[sli]) == in) {
@@ -438,12 +439,31 @@ void Solid::FixVertex(std::uint32_t v, std::uint32_t cell) {
   Star(cell, v, star);
   const int solid_groups = GroupStar(star, v, true, group);
   if (solid_groups > 1) {
-    // Several solid fans meet at v: keep the largest.
+    // Several solid fans meet at v: keep the largest, or the one holding cells an earlier fix
+    // filled (those are locked). If several hold such cells, join the fans by filling the outside
+    // around v when that is a small gap; otherwise leave it to the final check.
     std::vector<double> vol(static_cast<std::size_t>(solid_groups), 0.0);
+    std::vector<char> has_locked(static_cast<std::size_t>(solid_groups), 0);
     for (std::size_t i = 0; i < star.size(); ++i) {
-      if (group[i] >= 0) vol[static_cast<std::size_t>(group[i])] += volume_[star[i]];
+      if (group[i] < 0) continue;
+      vol[static_cast<std::size_t>(group[i])] += volume_[star[i]];
+      if (locked_[star[i]]) has_locked[static_cast<std::size_t>(group[i])] = 1;
     }
-    const auto best = static_cast<int>(std::max_element(vol.begin(), vol.end()) - vol.begin());
+    const auto locked_groups = std::count(has_locked.begin(), has_locked.end(), char{1});
+    int best = static_cast<int>(std::max_element(vol.begin(), vol.end()) - vol.begin());
+    if (locked_groups == 1) {
+      best = static_cast<int>(std::find(has_locked.begin(), has_locked.end(), char{1}) -
+                              has_locked.begin());
+    } else if (locked_groups > 1) {
+      bool can_fill = true;
+      for (std::size_t i = 0; i < star.size() && can_fill; ++i) {
+        if (!In(star[i])) can_fill = Fillable(star[i]);
+      }
+      for (std::size_t i = 0; i < star.size() && can_fill; ++i) {
+        if (!In(star[i])) Fill(star[i]);
+      }
+      return;
+    }
     for (std::size_t i = 0; i < star.size(); ++i) {
       if (group[i] >= 0 && group[i] != best) Remove(star[i]);
     }
@@ -517,9 +537,9 @@ void Solid::FixWholeBoundary() {
     const auto b = static_cast<std::uint32_t>(e.key & 0xffffffffu);
     if (a > b) continue;  // each pair once, from its a < b half
     const std::uint64_t twin_key = static_cast<std::uint64_t>(b) << 32 | a;
-    const auto twin = std::lower_bound(
-        edges.begin(), edges.end(), twin_key,
-        [](const DirectedEdge& x, std::uint64_t k) { return x.key < k; });
+    const auto twin =
+        std::lower_bound(edges.begin(), edges.end(), twin_key,
+                         [](const DirectedEdge& x, std::uint64_t k) { return x.key < k; });
     if (twin == edges.end() || twin->key != twin_key) continue;
     unite(corner(e.facet, a), corner(twin->facet, a));
     unite(corner(e.facet, b), corner(twin->facet, b));
@@ -552,7 +572,7 @@ void Solid::FixWholeBoundary() {
 
 void Solid::FixAround(const std::vector<std::uint32_t>& cells) {
   // Edges and vertices of the changed cells, each once, in a fixed order.
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> edges;  // (a << 32 | b, cell), a < b
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> edges;   // (a << 32 | b, cell), a < b
   std::vector<std::pair<std::uint32_t, std::uint32_t>> points;  // (point, cell)
   for (const std::uint32_t c : cells) {
     const auto& v = cell_v_[c];
@@ -602,8 +622,6 @@ bool Solid::Repair(int max_rounds) {
   return false;
 }
 
-
-
 /// Faces as point indices -> canonical mesh (see AlphaShapeResult::mesh).
 TriangleMesh CanonicalMesh(const std::vector<BoundaryFacet>& facets,
                            const std::vector<std::array<double, 3>>& points) {
@@ -646,7 +664,8 @@ void CheckOptions(const AlphaShapeOptions& o) {
   if (!(o.min_piece_volume_fraction >= 0.0 && o.min_piece_volume_fraction <= 1.0)) {
     throw std::invalid_argument("AlphaShapeOptions: min_piece_volume_fraction outside [0, 1]");
   }
-  if (o.max_repair_rounds < 1) throw std::invalid_argument("AlphaShapeOptions: max_repair_rounds < 1");
+  if (o.max_repair_rounds < 1)
+    throw std::invalid_argument("AlphaShapeOptions: max_repair_rounds < 1");
 }
 
 }  // namespace
@@ -709,10 +728,10 @@ core::Result<AlphaShapeResult> ReconstructAlphaShape(
     result.volume = report.volume;
     return result;
   }
-  return Unprocessable("no closed 2-manifold alpha shape up to alpha " +
-                       std::to_string(options.alpha *
-                                      std::pow(options.raise_factor, options.max_raises)) +
-                       " (" + last_reason + ")");
+  return Unprocessable(
+      "no closed 2-manifold alpha shape up to alpha " +
+      std::to_string(options.alpha * std::pow(options.raise_factor, options.max_raises)) + " (" +
+      last_reason + ")");
 }
 
 core::Result<std::vector<std::array<int, 3>>> RawAlphaShapeFacets(

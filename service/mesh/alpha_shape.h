@@ -8,13 +8,17 @@
 /// units of the points; CGAL's own "alpha" is its square. The solid is then made valid:
 ///   1. keep its largest face-connected piece (by volume), drop the others;
 ///   2. fill enclosed cavities (exterior tetrahedra not reachable from outside the hull);
-///   3. at a non-manifold edge (several solid wedges around it) keep the largest wedge; at a
-///      non-manifold vertex keep its largest solid fan, or, if the solid is one fan but the
-///      outside touches the vertex in several places, fill all but one outside fan;
-///   repeated until nothing changes. Its boundary is the mesh.
-/// If the largest piece holds less than `min_piece_volume_fraction` of the solid, or the solid is
-/// empty, or the repair does not settle, alpha is multiplied by `raise_factor` and the whole
-/// procedure repeats (up to `max_raises` times). Everything is reported.
+///   3. at a non-manifold edge (several solid wedges around it) keep the largest wedge;
+///   4. at a non-manifold vertex keep its largest solid fan; if the solid is one fan but the
+///      outside reaches the vertex in several places, fill the extra outside fans when every
+///      tetrahedron in them has circumradius <= raise_factor * alpha, else cut the solid away
+///      from the vertex;
+///   5. repeat 2-4 around whatever changed until nothing does (each tetrahedron changes at most
+///      once, so this terminates), then drop pieces the repair cut off.
+/// If the largest piece holds less than `min_piece_volume_fraction` of the solid (or the repair
+/// drops more), the solid is empty, the repair does not settle, or the result fails CheckMesh,
+/// alpha is multiplied by `raise_factor` and everything is redone on the same triangulation (up
+/// to `max_raises` times). Everything is reported. See docs/fractals.md.
 
 #include <array>
 #include <cstdint>
@@ -26,11 +30,11 @@
 namespace softgrasp::mesh {
 
 struct AlphaShapeOptions {
-  double alpha = 0.3;                     ///< ball radius, same units as the points (> 0)
-  double raise_factor = 1.5;              ///< alpha grows by this factor per retry (> 1)
-  int max_raises = 24;                    ///< retries before giving up (>= 0)
-  double min_piece_volume_fraction = 0.5; ///< largest piece must hold this share of the solid
-  int max_repair_rounds = 32;             ///< repair passes per alpha before raising
+  double alpha = 0.3;                      ///< ball radius, same units as the points (> 0)
+  double raise_factor = 1.5;               ///< alpha grows by this factor per retry (> 1)
+  int max_raises = 24;                     ///< retries before giving up (>= 0)
+  double min_piece_volume_fraction = 0.5;  ///< largest piece must hold this share of the solid
+  int max_repair_rounds = 32;              ///< repair passes per alpha before raising
 };
 
 struct AlphaShapeResult {
@@ -39,14 +43,14 @@ struct AlphaShapeResult {
   /// first appearance in the faces. So the result depends only on the triangulation.
   TriangleMesh mesh;
   double alpha_requested = 0.0;
-  double alpha_used = 0.0;       ///< alpha_requested * raise_factor^raises
-  int raises = 0;                ///< how many times alpha was raised
-  int pieces_dropped = 0;        ///< solid pieces dropped at alpha_used (small pieces + pinched-off)
+  double alpha_used = 0.0;  ///< alpha_requested * raise_factor^raises
+  int raises = 0;           ///< how many times alpha was raised
+  int pieces_dropped = 0;   ///< solid pieces dropped at alpha_used (small pieces + pinched-off)
   double dropped_volume_fraction = 0.0;  ///< share of the raw alpha solid's volume dropped
-  int cells_removed = 0;         ///< tetrahedra removed to make edges/vertices manifold
-  int cells_filled = 0;          ///< tetrahedra added (cavities, pinched tunnels)
-  int repair_rounds = 0;         ///< passes until the solid settled at alpha_used
-  double volume = 0.0;           ///< enclosed volume, units^3 (> 0)
+  int cells_removed = 0;                 ///< tetrahedra removed to make edges/vertices manifold
+  int cells_filled = 0;                  ///< tetrahedra added (cavities, pinched tunnels)
+  int repair_rounds = 0;                 ///< passes until the solid settled at alpha_used
+  double volume = 0.0;                   ///< enclosed volume, units^3 (> 0)
 };
 
 /// Reconstructs a closed mesh from `points` (see the file comment).
@@ -54,8 +58,8 @@ struct AlphaShapeResult {
 /// coplanar, a non-finite coordinate, or no valid solid up to the last alpha.
 /// @throws std::invalid_argument if options are out of range (alpha <= 0 or not finite,
 ///         raise_factor <= 1, max_raises < 0, fraction outside [0, 1], max_repair_rounds < 1).
-core::Result<AlphaShapeResult> ReconstructAlphaShape(const std::vector<std::array<double, 3>>& points,
-                                                     const AlphaShapeOptions& options);
+core::Result<AlphaShapeResult> ReconstructAlphaShape(
+    const std::vector<std::array<double, 3>>& points, const AlphaShapeOptions& options);
 
 /// The raw boundary of the regularized alpha solid at `alpha` (no piece selection, no repair):
 /// every facet between a tetrahedron with circumradius <= alpha and one that is not, oriented

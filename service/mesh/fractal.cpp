@@ -126,7 +126,8 @@ std::uint64_t DrawSeed(std::uint64_t seed, int attempt) {
 }
 
 std::optional<core::Error> ValidateFractalParams(const FractalParams& p) {
-  auto int_range = [](const std::string& field, int v, int lo, int hi) -> std::optional<core::Error> {
+  auto int_range = [](const std::string& field, int v, int lo,
+                      int hi) -> std::optional<core::Error> {
     if (v < lo || v > hi) {
       return Invalid(field, "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
                                 "], got " + std::to_string(v));
@@ -193,9 +194,9 @@ core::Result<FractalModel> GenerateFractal(const FractalParams& params) {
     }
     // Thesis eq. 4.5 on the normalised cloud, exact (two-pass) variances.
     const CloudNormalization normalization = ComputeNormalization(points);
-    const std::array<double, 3> variances =
-        normalization.scale > 0.0 ? AxisVariances(points, normalization)
-                                  : std::array<double, 3>{0.0, 0.0, 0.0};
+    const std::array<double, 3> variances = normalization.scale > 0.0
+                                                ? AxisVariances(points, normalization)
+                                                : std::array<double, 3>{0.0, 0.0, 0.0};
     if (!(std::min({variances[0], variances[1], variances[2]}) > params.sigma)) {
       ++rejections.low_variance;
       continue;

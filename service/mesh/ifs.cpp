@@ -2,25 +2,23 @@
 // inner loop of every draw, rejected or not.
 #include "service/mesh/ifs.h"
 
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
-#include <Eigen/Core>
-#include <Eigen/Eigenvalues>
-
 namespace softgrasp::mesh {
 
 int UniformInt(std::mt19937_64& rng, int lo, int hi) {
   if (lo > hi) throw std::invalid_argument("UniformInt: lo > hi");
   const std::uint64_t span =
-      static_cast<std::uint64_t>(static_cast<std::int64_t>(hi) - static_cast<std::int64_t>(lo)) +
-      1;
+      static_cast<std::uint64_t>(static_cast<std::int64_t>(hi) - static_cast<std::int64_t>(lo)) + 1;
   // Largest multiple of span that fits in 2^64: draws at or above it are redrawn (no modulo bias).
-  const std::uint64_t limit = std::numeric_limits<std::uint64_t>::max() -
-                              std::numeric_limits<std::uint64_t>::max() % span;
+  const std::uint64_t limit =
+      std::numeric_limits<std::uint64_t>::max() - std::numeric_limits<std::uint64_t>::max() % span;
   std::uint64_t x = rng();
   while (x >= limit) x = rng();
   return static_cast<int>(static_cast<std::int64_t>(lo) + static_cast<std::int64_t>(x % span));

@@ -26,9 +26,7 @@ struct Ifs {
 };
 
 /// A double in [0, 1) from the top 53 bits of one engine output.
-inline double UnitDouble(std::uint64_t bits) {
-  return static_cast<double>(bits >> 11) * 0x1.0p-53;
-}
+inline double UnitDouble(std::uint64_t bits) { return static_cast<double>(bits >> 11) * 0x1.0p-53; }
 
 /// Uniform integer in [lo, hi] from the engine, unbiased (rejection), deterministic.
 /// @pre lo <= hi.  @throws std::invalid_argument otherwise.

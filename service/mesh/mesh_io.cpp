@@ -108,7 +108,9 @@ core::Error TooLarge(const std::string& what) {
   return core::MakeError(core::ErrorCode::kPayloadTooLarge, what, "mesh");
 }
 
-bool IsSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; }
+bool IsSpace(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v';
+}
 
 bool StartsWith(std::string_view s, std::string_view prefix) {
   return s.substr(0, prefix.size()) == prefix;
@@ -164,7 +166,8 @@ std::string_view NextLine(std::string_view text, std::size_t& pos) {
   const std::size_t start = pos;
   const std::size_t end = text.find('\n', pos);
   pos = end == std::string_view::npos ? text.size() : end + 1;
-  std::string_view line = text.substr(start, (end == std::string_view::npos ? text.size() : end) - start);
+  std::string_view line =
+      text.substr(start, (end == std::string_view::npos ? text.size() : end) - start);
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
   return line;
 }
@@ -218,7 +221,8 @@ core::Result<TriangleMesh> ReadObj(std::string_view text, const MeshReadOptions&
   while (pos < text.size()) {
     ++line_number;
     std::string_view line = NextLine(text, pos);
-    if (const auto hash = line.find('#'); hash != std::string_view::npos) line = line.substr(0, hash);
+    if (const auto hash = line.find('#'); hash != std::string_view::npos)
+      line = line.substr(0, hash);
     const auto words = SplitWords(line);
     if (words.empty()) continue;
     const std::string where = " (line " + std::to_string(line_number) + ")";
@@ -240,12 +244,14 @@ core::Result<TriangleMesh> ReadObj(std::string_view text, const MeshReadOptions&
       for (std::size_t k = 1; k < words.size(); ++k) {
         const std::string_view ref = words[k].substr(0, words[k].find('/'));
         const auto index = ParseInt(ref);
-        if (!index || *index == 0) return Malformed("OBJ face index is not a non-zero integer" + where);
+        if (!index || *index == 0)
+          return Malformed("OBJ face index is not a non-zero integer" + where);
         // Negative indices count back from the last vertex so far; positive ones are checked at
         // the end (some writers put faces before their vertices).
         const std::int64_t nv = static_cast<std::int64_t>(mesh.vertices.size());
         const std::int64_t i = *index > 0 ? *index - 1 : nv + *index;
-        if (i < 0 || i >= options.max_vertices) return Malformed("OBJ face index out of range" + where);
+        if (i < 0 || i >= options.max_vertices)
+          return Malformed("OBJ face index out of range" + where);
         polygon.push_back(static_cast<int>(i));
       }
       if (auto e = AddPolygon(polygon, mesh, options)) return *e;
@@ -271,11 +277,11 @@ enum class PlyType { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, 
 
 std::optional<PlyType> ParsePlyType(std::string_view name) {
   static constexpr std::pair<std::string_view, PlyType> kNames[] = {
-      {"char", PlyType::kInt8},     {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
-      {"uint8", PlyType::kUint8},   {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
-      {"ushort", PlyType::kUint16}, {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
-      {"int32", PlyType::kInt32},   {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
-      {"float", PlyType::kFloat32}, {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
+      {"char", PlyType::kInt8},      {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
+      {"uint8", PlyType::kUint8},    {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
+      {"ushort", PlyType::kUint16},  {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
+      {"int32", PlyType::kInt32},    {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
+      {"float", PlyType::kFloat32},  {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
       {"float64", PlyType::kFloat64}};
   for (const auto& [n, t] : kNames) {
     if (n == name) return t;
@@ -286,13 +292,17 @@ std::optional<PlyType> ParsePlyType(std::string_view name) {
 std::size_t PlyTypeSize(PlyType t) {
   switch (t) {
     case PlyType::kInt8:
-    case PlyType::kUint8: return 1;
+    case PlyType::kUint8:
+      return 1;
     case PlyType::kInt16:
-    case PlyType::kUint16: return 2;
+    case PlyType::kUint16:
+      return 2;
     case PlyType::kInt32:
     case PlyType::kUint32:
-    case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
   }
   return 1;
 }
@@ -349,7 +359,8 @@ core::Result<PlyHeader> ParsePlyHeader(std::string_view bytes) {
     } else if (words[0] == "element") {
       if (words.size() != 3) return Malformed("PLY: bad element line");
       const auto count = ParseInt(words[2]);
-      if (!count || *count < 0) return Malformed("PLY: element count is not a non-negative integer");
+      if (!count || *count < 0)
+        return Malformed("PLY: element count is not a non-negative integer");
       header.elements.push_back({std::string(words[1].substr(0, 64)), *count, {}});
     } else if (words[0] == "property") {
       if (header.elements.empty()) return Malformed("PLY: property before any element");
@@ -407,12 +418,18 @@ class PlyBody {
     }
     pos_ += n;
     switch (type) {
-      case PlyType::kInt8: return static_cast<double>(static_cast<std::int8_t>(bits));
-      case PlyType::kUint8: return static_cast<double>(static_cast<std::uint8_t>(bits));
-      case PlyType::kInt16: return static_cast<double>(static_cast<std::int16_t>(bits));
-      case PlyType::kUint16: return static_cast<double>(static_cast<std::uint16_t>(bits));
-      case PlyType::kInt32: return static_cast<double>(static_cast<std::int32_t>(bits));
-      case PlyType::kUint32: return static_cast<double>(static_cast<std::uint32_t>(bits));
+      case PlyType::kInt8:
+        return static_cast<double>(static_cast<std::int8_t>(bits));
+      case PlyType::kUint8:
+        return static_cast<double>(static_cast<std::uint8_t>(bits));
+      case PlyType::kInt16:
+        return static_cast<double>(static_cast<std::int16_t>(bits));
+      case PlyType::kUint16:
+        return static_cast<double>(static_cast<std::uint16_t>(bits));
+      case PlyType::kInt32:
+        return static_cast<double>(static_cast<std::int32_t>(bits));
+      case PlyType::kUint32:
+        return static_cast<double>(static_cast<std::uint32_t>(bits));
       case PlyType::kFloat32: {
         const auto b32 = static_cast<std::uint32_t>(bits);
         float f = 0.0f;
@@ -710,9 +727,9 @@ bool LooksLikeText(std::string_view bytes) {
 }
 
 bool LooksLikeObj(std::string_view text) {
-  static constexpr std::string_view kKeywords[] = {"v",  "vt", "vn", "vp",     "f",      "o",
-                                                   "g",  "s",  "l",  "p",      "mtllib", "usemtl",
-                                                   "cstype", "deg", "curv", "surf"};
+  static constexpr std::string_view kKeywords[] = {
+      "v", "vt", "vn",     "vp",     "f",      "o",   "g",    "s",
+      "l", "p",  "mtllib", "usemtl", "cstype", "deg", "curv", "surf"};
   std::size_t pos = 0;
   const std::string_view head = text.substr(0, 1 << 16);
   while (pos < head.size()) {
@@ -727,11 +744,16 @@ bool LooksLikeObj(std::string_view text) {
 
 const char* MeshFormatName(MeshFormat format) {
   switch (format) {
-    case MeshFormat::kObj: return "obj";
-    case MeshFormat::kPlyAscii: return "ply_ascii";
-    case MeshFormat::kPlyBinary: return "ply_binary";
-    case MeshFormat::kStlAscii: return "stl_ascii";
-    case MeshFormat::kStlBinary: return "stl_binary";
+    case MeshFormat::kObj:
+      return "obj";
+    case MeshFormat::kPlyAscii:
+      return "ply_ascii";
+    case MeshFormat::kPlyBinary:
+      return "ply_binary";
+    case MeshFormat::kStlAscii:
+      return "stl_ascii";
+    case MeshFormat::kStlBinary:
+      return "stl_binary";
   }
   return "obj";
 }
@@ -857,11 +879,16 @@ std::string WriteStl(const TriangleMesh& mesh, Encoding encoding) {
 
 std::string WriteMesh(const TriangleMesh& mesh, MeshFormat format) {
   switch (format) {
-    case MeshFormat::kObj: return WriteObj(mesh);
-    case MeshFormat::kPlyAscii: return WritePly(mesh, Encoding::kAscii);
-    case MeshFormat::kPlyBinary: return WritePly(mesh, Encoding::kBinary);
-    case MeshFormat::kStlAscii: return WriteStl(mesh, Encoding::kAscii);
-    case MeshFormat::kStlBinary: return WriteStl(mesh, Encoding::kBinary);
+    case MeshFormat::kObj:
+      return WriteObj(mesh);
+    case MeshFormat::kPlyAscii:
+      return WritePly(mesh, Encoding::kAscii);
+    case MeshFormat::kPlyBinary:
+      return WritePly(mesh, Encoding::kBinary);
+    case MeshFormat::kStlAscii:
+      return WriteStl(mesh, Encoding::kAscii);
+    case MeshFormat::kStlBinary:
+      return WriteStl(mesh, Encoding::kBinary);
   }
   throw std::invalid_argument("WriteMesh: unknown format");
 }
@@ -900,11 +927,15 @@ core::Result<TriangleMesh> ReadMesh(std::string_view bytes, const MeshReadOption
   const auto format = SniffMeshFormat(bytes);
   if (!format.ok()) return format.error();
   switch (format.value()) {
-    case MeshFormat::kObj: return ReadObj(bytes, options);
+    case MeshFormat::kObj:
+      return ReadObj(bytes, options);
     case MeshFormat::kPlyAscii:
-    case MeshFormat::kPlyBinary: return ReadPly(bytes, options);
-    case MeshFormat::kStlAscii: return ReadStlAscii(bytes, options);
-    case MeshFormat::kStlBinary: return ReadStlBinary(bytes, options);
+    case MeshFormat::kPlyBinary:
+      return ReadPly(bytes, options);
+    case MeshFormat::kStlAscii:
+      return ReadStlAscii(bytes, options);
+    case MeshFormat::kStlBinary:
+      return ReadStlBinary(bytes, options);
   }
   return Malformed("unknown format");
 }

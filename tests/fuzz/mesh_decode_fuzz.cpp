@@ -48,8 +48,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   CheckDecoded(m);
 
   // Exact round trips through the lossless formats.
-  for (const auto& written : {softgrasp::mesh::WriteObj(m), softgrasp::mesh::WritePly(m, Encoding::kAscii),
-                              softgrasp::mesh::WritePly(m, Encoding::kBinary)}) {
+  for (const auto& written :
+       {softgrasp::mesh::WriteObj(m), softgrasp::mesh::WritePly(m, Encoding::kAscii),
+        softgrasp::mesh::WritePly(m, Encoding::kBinary)}) {
     const auto back = softgrasp::mesh::ReadMesh(written, options);
     if (!back.ok() || !(back.value() == m)) std::abort();
   }

@@ -2,6 +2,13 @@
 // clouds with known shapes (ball, two balls, a hollow shell with a core, sparse points).
 #include "service/mesh/alpha_shape.h"
 
+#include <CGAL/Delaunay_triangulation_3.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Fixed_alpha_shape_3.h>
+#include <CGAL/Fixed_alpha_shape_cell_base_3.h>
+#include <CGAL/Fixed_alpha_shape_vertex_base_3.h>
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -9,13 +16,6 @@
 #include <random>
 #include <set>
 #include <stdexcept>
-
-#include <CGAL/Delaunay_triangulation_3.h>
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Fixed_alpha_shape_3.h>
-#include <CGAL/Fixed_alpha_shape_cell_base_3.h>
-#include <CGAL/Fixed_alpha_shape_vertex_base_3.h>
-#include <gtest/gtest.h>
 
 #include "service/mesh/ifs.h"
 #include "service/mesh/mesh_check.h"
@@ -81,8 +81,9 @@ TEST(AlphaShapeTest, RawSolidMatchesCgalFixedAlphaShape) {
     double interior_volume = 0.0;
     for (auto c = shape.finite_cells_begin(); c != shape.finite_cells_end(); ++c) {
       if (shape.classify(c) == AlphaShape::INTERIOR) {
-        interior_volume += CGAL::to_double(CGAL::volume(c->vertex(0)->point(), c->vertex(1)->point(),
-                                                        c->vertex(2)->point(), c->vertex(3)->point()));
+        interior_volume +=
+            CGAL::to_double(CGAL::volume(c->vertex(0)->point(), c->vertex(1)->point(),
+                                         c->vertex(2)->point(), c->vertex(3)->point()));
       }
     }
 
@@ -146,7 +147,7 @@ TEST(AlphaShapeTest, KeepsTheLargestOfTwoBalls) {
   EXPECT_TRUE(CheckMesh(r.mesh).ok());
   EXPECT_GE(r.pieces_dropped, 1);
   EXPECT_EQ(r.raises, 0);
-  EXPECT_NEAR(r.dropped_volume_fraction, 1.0 / 9.0, 0.03);  // radius 0.5 vs 1: volume 1 : 8
+  EXPECT_NEAR(r.dropped_volume_fraction, 1.0 / 9.0, 0.03);      // radius 0.5 vs 1: volume 1 : 8
   for (const auto& v : r.mesh.vertices) EXPECT_LT(v[0], 1.01);  // the big ball only
 }
 
@@ -176,8 +177,7 @@ TEST(AlphaShapeTest, RaisesAlphaWhenTheLargestPieceIsTooSmall) {
 TEST(AlphaShapeTest, FillsTheCavityOfAHollowShell) {
   // A thick shell with a small core floating in its hollow: the shell is the largest piece, the
   // core is dropped, and the hollow is filled, so the mesh is one sphere-like surface.
-  const Points points =
-      Join(Shell(5000, 0.8, 1.0, {0, 0, 0}, 41), Ball(300, 0.25, {0, 0, 0}, 42));
+  const Points points = Join(Shell(5000, 0.8, 1.0, {0, 0, 0}, 41), Ball(300, 0.25, {0, 0, 0}, 42));
   const auto result = ReconstructAlphaShape(points, {.alpha = 0.2});
   ASSERT_TRUE(result.ok()) << result.error().message;
   const AlphaShapeResult& r = result.value();

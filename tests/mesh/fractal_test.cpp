@@ -2,15 +2,15 @@
 // determinism (in-process and against golden bytes) and the reported fields.
 #include "service/mesh/fractal.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "service/mesh/mesh_check.h"
 #include "service/mesh/mesh_io.h"
@@ -65,8 +65,8 @@ void ExpectValidModel(const FractalModel& m, const FractalParams& p) {
   EXPECT_GE(m.dropped_volume_fraction, 0.0);
   EXPECT_LE(m.dropped_volume_fraction, 1.0 - p.min_piece_volume_fraction);
   const FractalRejections& j = m.rejections;
-  EXPECT_EQ(m.attempts, 1 + j.expanding + j.diverged + j.low_variance + j.no_solid +
-                            j.float_collision);
+  EXPECT_EQ(m.attempts,
+            1 + j.expanding + j.diverged + j.low_variance + j.no_solid + j.float_collision);
   EXPECT_GT(std::min({m.variances[0], m.variances[1], m.variances[2]}), p.sigma);
   EXPECT_EQ(m.num_points, p.num_points);
   EXPECT_GE(static_cast<int>(m.ifs.maps.size()), p.min_maps);
@@ -106,9 +106,10 @@ TEST(FractalTest, BatchesOfFiftyPerAlphaAreAllValid) {
   const BatchSummary medium = RunBatch(0.3, 50, 2000);
   const BatchSummary coarse = RunBatch(0.7, 50, 2000);
   for (const auto& [alpha, s] : {std::pair{0.06, fine}, {0.3, medium}, {0.7, coarse}}) {
-    std::printf("alpha %.2f: mean volume %.3f (normalised units), alpha raised in %d/50, "
-                "pieces dropped in %d/50\n",
-                alpha, s.mean_unit_volume, s.raised, s.with_dropped_pieces);
+    std::printf(
+        "alpha %.2f: mean volume %.3f (normalised units), alpha raised in %d/50, "
+        "pieces dropped in %d/50\n",
+        alpha, s.mean_unit_volume, s.raised, s.with_dropped_pieces);
   }
   EXPECT_LT(fine.mean_unit_volume, medium.mean_unit_volume);
   EXPECT_LT(medium.mean_unit_volume, coarse.mean_unit_volume);

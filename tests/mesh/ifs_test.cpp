@@ -1,12 +1,12 @@
 // The IFS building blocks: random numbers, draws, the chaos game and the cloud statistics.
 #include "service/mesh/ifs.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <stdexcept>
-
-#include <gtest/gtest.h>
 
 namespace softgrasp::mesh {
 namespace {

@@ -1,11 +1,11 @@
 // CheckMesh on meshes whose answers are known by construction.
 #include "service/mesh/mesh_check.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
 #include <utility>
-
-#include <gtest/gtest.h>
 
 #include "tests/mesh/mesh_test_util.h"
 

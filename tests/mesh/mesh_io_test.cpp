@@ -3,6 +3,8 @@
 // (SOFTGRASP_WRITE_FUZZ_CORPUS=1 rewrites it from CorpusFiles() below).
 #include "service/mesh/mesh_io.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -13,8 +15,6 @@
 #include <map>
 #include <stdexcept>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "service/mesh/fractal.h"
 #include "tests/mesh/mesh_test_util.h"
@@ -119,7 +119,8 @@ TEST(MeshIoTest, StlIsFloat32AndWelds) {
     const auto first = FirstAppearanceOrder(m);
     for (std::size_t i = 0; i < 4; ++i) {
       for (std::size_t k = 0; k < 3; ++k) {
-        EXPECT_EQ(back.vertices[i][k], static_cast<double>(static_cast<float>(first.vertices[i][k])));
+        EXPECT_EQ(back.vertices[i][k],
+                  static_cast<double>(static_cast<float>(first.vertices[i][k])));
       }
     }
   }
