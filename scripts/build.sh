@@ -4,5 +4,8 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${SOFTGRASP_BUILD_DIR:-$root/build}"
+# ccache hits across checkouts in different folders (CI clones afresh each time).
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$root}"
+export CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-1}"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSOFTGRASP_WERROR=ON "$@" >/dev/null
 cmake --build "$build" -j "$(nproc)"
