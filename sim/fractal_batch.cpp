@@ -12,17 +12,6 @@ using core::ErrorCode;
 using core::MakeError;
 using nlohmann::json;
 
-const char* Extension(mesh::MeshFormat format) {
-  switch (format) {
-    case mesh::MeshFormat::kObj: return "obj";
-    case mesh::MeshFormat::kPlyAscii:
-    case mesh::MeshFormat::kPlyBinary: return "ply";
-    case mesh::MeshFormat::kStlAscii:
-    case mesh::MeshFormat::kStlBinary: return "stl";
-  }
-  return "obj";
-}
-
 bool WriteFile(const std::filesystem::path& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
@@ -62,7 +51,7 @@ core::Result<std::filesystem::path> GenerateFractalBatch(
     p.seed = params.seed + static_cast<std::uint64_t>(i);
     auto model = mesh::GenerateFractal(p);
     if (!model.ok()) return model.error();
-    const std::string file = "fractal_" + std::to_string(p.seed) + "." + Extension(params.format);
+    const std::string file = "fractal_" + std::to_string(p.seed) + "." + mesh::MeshFileExtension(params.format);
     if (!WriteFile(params.out_dir / file, mesh::WriteMesh(model.value().mesh, params.format))) {
       return MakeError(ErrorCode::kInvalidArgument, "cannot write " + (params.out_dir / file).string(), "out");
     }

@@ -2,7 +2,6 @@
 // today: `fractals` (batches of fractal training meshes).
 #include <cstdlib>
 #include <iostream>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -33,18 +32,6 @@ bool ParseInt(const std::string& text, long long* out) {
   return !text.empty() && end == text.c_str() + text.size();
 }
 
-bool ParseFormat(const std::string& s, mesh::MeshFormat* out) {
-  static const std::map<std::string, mesh::MeshFormat> formats = {
-      {"obj", mesh::MeshFormat::kObj},          {"ply", mesh::MeshFormat::kPlyBinary},
-      {"ply_binary", mesh::MeshFormat::kPlyBinary}, {"ply_ascii", mesh::MeshFormat::kPlyAscii},
-      {"stl", mesh::MeshFormat::kStlBinary},    {"stl_binary", mesh::MeshFormat::kStlBinary},
-      {"stl_ascii", mesh::MeshFormat::kStlAscii}};
-  const auto it = formats.find(s);
-  if (it == formats.end()) return false;
-  *out = it->second;
-  return true;
-}
-
 // Returns an error message, or "" when `params` is filled.
 std::string ParseFractalsArgs(const std::vector<std::string>& args, sim::FractalBatchParams* params) {
   bool have_out = false;
@@ -73,7 +60,8 @@ std::string ParseFractalsArgs(const std::vector<std::string>& args, sim::Fractal
       if (!ok) return "--maps must be N or MIN-MAX";
       params->model.min_maps = static_cast<int>(lo);
       params->model.max_maps = static_cast<int>(hi);
-    } else if (flag == "--format" && ParseFormat(value, &params->format)) {
+    } else if (flag == "--format" && mesh::MeshFormatFromName(value)) {
+      params->format = *mesh::MeshFormatFromName(value);
     } else if (flag == "--out") {
       params->out_dir = value;
       have_out = true;

@@ -758,6 +758,27 @@ const char* MeshFormatName(MeshFormat format) {
   return "obj";
 }
 
+std::optional<MeshFormat> MeshFormatFromName(std::string_view name) {
+  for (MeshFormat f : {MeshFormat::kObj, MeshFormat::kPlyAscii, MeshFormat::kPlyBinary,
+                       MeshFormat::kStlAscii, MeshFormat::kStlBinary}) {
+    if (name == MeshFormatName(f)) return f;
+  }
+  if (name == "ply") return MeshFormat::kPlyBinary;
+  if (name == "stl") return MeshFormat::kStlBinary;
+  return std::nullopt;
+}
+
+const char* MeshFileExtension(MeshFormat format) {
+  switch (format) {
+    case MeshFormat::kObj: return "obj";
+    case MeshFormat::kPlyAscii:
+    case MeshFormat::kPlyBinary: return "ply";
+    case MeshFormat::kStlAscii:
+    case MeshFormat::kStlBinary: return "stl";
+  }
+  return "obj";
+}
+
 std::string WriteObj(const TriangleMesh& mesh) {
   CheckWritable(mesh, false);
   std::string out = "# softgrasp mesh: ";

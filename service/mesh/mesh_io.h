@@ -7,6 +7,7 @@
 /// and against the bytes actually present before anything is allocated.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -20,6 +21,12 @@ enum class Encoding { kAscii, kBinary };
 
 /// "obj", "ply_ascii", "ply_binary", "stl_ascii", "stl_binary".
 const char* MeshFormatName(MeshFormat format);
+
+/// The format named by MeshFormatName(), or the short aliases "ply" and "stl" (binary).
+std::optional<MeshFormat> MeshFormatFromName(std::string_view name);
+
+/// File name extension without the dot: "obj", "ply" or "stl".
+const char* MeshFileExtension(MeshFormat format);
 
 /// Wavefront OBJ: "v x y z" lines then "f a b c" (1-based).
 /// @throws std::invalid_argument if a face index is out of range or a coordinate not finite

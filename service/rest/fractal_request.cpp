@@ -39,11 +39,8 @@ core::Result<mesh::MeshFormat> ParseFormat(const json& v, bool* stats_only) {
   if (!v.is_string()) return FieldError("format", "must be a string");
   const std::string s = v.get<std::string>();
   *stats_only = s == "json";
-  if (s == "json" || s == "obj") return mesh::MeshFormat::kObj;
-  if (s == "ply" || s == "ply_binary") return mesh::MeshFormat::kPlyBinary;
-  if (s == "ply_ascii") return mesh::MeshFormat::kPlyAscii;
-  if (s == "stl" || s == "stl_binary") return mesh::MeshFormat::kStlBinary;
-  if (s == "stl_ascii") return mesh::MeshFormat::kStlAscii;
+  if (*stats_only) return mesh::MeshFormat::kObj;
+  if (const auto format = mesh::MeshFormatFromName(s)) return *format;
   return FieldError("format",
                     "must be one of json, obj, ply, ply_ascii, ply_binary, stl, stl_ascii, "
                     "stl_binary");
@@ -138,15 +135,7 @@ core::Result<FractalRequest> ParseFractalRequest(std::string_view body,
 std::string FractalFileName(const FractalRequest& request) {
   char alpha[32];
   std::snprintf(alpha, sizeof alpha, "%g", request.params.alpha);
-  const char* extension = "obj";
-  switch (request.format) {
-    case mesh::MeshFormat::kObj: extension = "obj"; break;
-    case mesh::MeshFormat::kPlyAscii:
-    case mesh::MeshFormat::kPlyBinary: extension = "ply"; break;
-    case mesh::MeshFormat::kStlAscii:
-    case mesh::MeshFormat::kStlBinary: extension = "stl"; break;
-  }
-  return "fractal-seed" + std::to_string(request.params.seed) + "-alpha" + alpha + "." + extension;
+  return "fractal-seed" + std::to_string(request.params.seed) + "-alpha" + alpha + "." + mesh::MeshFileExtension(request.format);
 }
 
 }  // namespace softgrasp::rest
