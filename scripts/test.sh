@@ -14,5 +14,6 @@ SOFTGRASP_TARGETS="http_message_test http_parser_test http_router_test http_serv
   io_npy_test io_png_tiff_test io_intrinsics_test io_fuzz_corpus_test mesh_io_test
   http_request_replay depth_decode_replay mesh_decode_replay" \
   bash "$root/scripts/build.sh" -DSOFTGRASP_SANITIZER=address,undefined -DSOFTGRASP_BUILD_BENCHMARKS=OFF
-ctest --test-dir "$root/build-asan" -j "$(nproc)" --output-on-failure -L 'http|io|fuzz' \
-  -E '^(io_overlay|MeshIo)'  # (not built in this pass)
+# Tests of targets not built in this pass show up as *_NOT_BUILT: skip them.
+ctest --test-dir "$root/build-asan" -j "$(nproc)" --output-on-failure -L 'http|io|mesh|fuzz' \
+  -E 'NOT_BUILT'
