@@ -333,19 +333,23 @@ bool RequestParser::ParseFieldLine(std::string_view line, Headers* out) {
   return true;
 }
 
-bool RequestParser::StepHeaderLine() {
-  std::string_view line;
-  switch (NextLine(&line)) {
+bool RequestParser::NextFieldLine(std::string_view* line, const char* kind) {
+  switch (NextLine(line)) {
     case LineStatus::kPartial:
-      CheckFieldLineLimit(line.size());
+      CheckFieldLineLimit(line->size());
       return false;
     case LineStatus::kBareLf:
-      if (!CheckFieldLineLimit(line.size() + 1)) return false;
-      return Fail(400, "header line must end with CRLF");
+      if (!CheckFieldLineLimit(line->size() + 1)) return false;
+      return Fail(400, std::string(kind) + " line must end with CRLF");
     case LineStatus::kLine:
       break;
   }
-  if (!CheckFieldLineLimit(line.size() + 2)) return false;
+  return CheckFieldLineLimit(line->size() + 2);
+}
+
+bool RequestParser::StepHeaderLine() {
+  std::string_view line;
+  if (!NextFieldLine(&line, "header")) return false;
   if (line.empty()) {
     ConsumeLine(line, &header_bytes_);
     return StepHeadersDone();
@@ -499,17 +503,7 @@ bool RequestParser::StepChunkDataEnd() {
 
 bool RequestParser::StepTrailerLine() {
   std::string_view line;
-  switch (NextLine(&line)) {
-    case LineStatus::kPartial:
-      CheckFieldLineLimit(line.size());
-      return false;
-    case LineStatus::kBareLf:
-      if (!CheckFieldLineLimit(line.size() + 1)) return false;
-      return Fail(400, "trailer line must end with CRLF");
-    case LineStatus::kLine:
-      break;
-  }
-  if (!CheckFieldLineLimit(line.size() + 2)) return false;
+  if (!NextFieldLine(&line, "trailer")) return false;
   ConsumeLine(line, &header_bytes_);
   if (line.empty()) return Complete();
   return ParseFieldLine(line, nullptr);  // trailers are validated, then dropped

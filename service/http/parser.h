@@ -65,6 +65,9 @@ class RequestParser {
   bool Fail(int status, std::string message);  ///< enters kError; always returns false
   LineStatus NextLine(std::string_view* line);
   void ConsumeLine(std::string_view line, std::size_t* counter);
+  /// A complete CRLF-terminated header or trailer line within the header-block limit; false
+  /// when more bytes are needed or the line is refused (`kind` names it in the error).
+  bool NextFieldLine(std::string_view* line, const char* kind);
   bool StepRequestLine();
   bool StepHeaderLine();
   bool StepHeadersDone();

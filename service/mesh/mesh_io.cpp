@@ -58,6 +58,25 @@ void AppendInt(std::string& out, std::int64_t x) {
   out.append(buf, r.ptr);
 }
 
+// "x y z\n" and "a b c\n" (indices shifted by `base`): the text lines OBJ and ASCII PLY share.
+void AppendCoordinates(std::string& out, const std::array<double, 3>& v) {
+  AppendDouble(out, v[0]);
+  out += ' ';
+  AppendDouble(out, v[1]);
+  out += ' ';
+  AppendDouble(out, v[2]);
+  out += '\n';
+}
+
+void AppendIndices(std::string& out, const std::array<int, 3>& f, int base) {
+  AppendInt(out, f[0] + base);
+  out += ' ';
+  AppendInt(out, f[1] + base);
+  out += ' ';
+  AppendInt(out, f[2] + base);
+  out += '\n';
+}
+
 template <class T>
 void AppendLittleEndian(std::string& out, T value) {
   static_assert(std::is_trivially_copyable_v<T>);
@@ -788,21 +807,11 @@ std::string WriteObj(const TriangleMesh& mesh) {
   out += " triangles\n";
   for (const auto& v : mesh.vertices) {
     out += "v ";
-    AppendDouble(out, v[0]);
-    out += ' ';
-    AppendDouble(out, v[1]);
-    out += ' ';
-    AppendDouble(out, v[2]);
-    out += '\n';
+    AppendCoordinates(out, v);
   }
   for (const auto& f : mesh.faces) {
     out += "f ";
-    AppendInt(out, f[0] + 1);
-    out += ' ';
-    AppendInt(out, f[1] + 1);
-    out += ' ';
-    AppendInt(out, f[2] + 1);
-    out += '\n';
+    AppendIndices(out, f, 1);  // OBJ counts from 1
   }
   return out;
 }
@@ -828,22 +837,10 @@ std::string WritePly(const TriangleMesh& mesh, Encoding encoding) {
     }
     return out;
   }
-  for (const auto& v : mesh.vertices) {
-    AppendDouble(out, v[0]);
-    out += ' ';
-    AppendDouble(out, v[1]);
-    out += ' ';
-    AppendDouble(out, v[2]);
-    out += '\n';
-  }
+  for (const auto& v : mesh.vertices) AppendCoordinates(out, v);
   for (const auto& f : mesh.faces) {
     out += "3 ";
-    AppendInt(out, f[0]);
-    out += ' ';
-    AppendInt(out, f[1]);
-    out += ' ';
-    AppendInt(out, f[2]);
-    out += '\n';
+    AppendIndices(out, f, 0);
   }
   return out;
 }
