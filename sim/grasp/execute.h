@@ -1,0 +1,70 @@
+#pragma once
+/// The grasp execution model (docs/sim-grasp-execution.md): a 4-DoF two-finger grasp evaluated
+/// in the true scene (not from the image): finger collisions on the way down, first-contact
+/// width l_c, width after squeezing l_g from a Hooke-law contact on the local stiffness,
+/// deformation rate (l_c - l_g) / l_c, and whether the lift holds.
+
+#include <Eigen/Geometry>
+#include <string>
+
+#include "service/core/grasp.h"
+#include "service/core/status.h"
+#include "sim/render/raycast.h"
+#include "sim/scene/scene.h"
+
+namespace softgrasp::sim {
+
+/// A parallel gripper, in SI units.
+struct SimGripper {
+  double opening_stroke_m = 0.05;     ///< widest distance between the inner finger faces
+  double finger_width_m = 0.015;      ///< finger size across the closing axis
+  double finger_thickness_m = 0.008;  ///< finger size along the closing axis
+  double finger_length_m = 0.04;      ///< how far fingers reach below the palm
+  double closing_force_n = 10.0;      ///< constant force each finger pushes with once in contact
+  double friction_coefficient = 0.5;  ///< finger pad / object Coulomb friction
+};
+
+/// A 4-DoF grasp in W: fingertips at height z = fingertip_height_m, centred on (x, y), closing
+/// axis at angle_rad from +x towards +y, fingers opened to opening_m before descending.
+struct SimGrasp {
+  double center_x_m = 0.0;
+  double center_y_m = 0.0;
+  double fingertip_height_m = 0.0;
+  double angle_rad = 0.0;
+  double opening_m = 0.05;
+};
+
+/// Converts a planner grasp (camera frame C, see core::Grasp) to W using the camera's pose.
+SimGrasp SimGraspFromCamera(const core::Grasp& grasp, const Eigen::Isometry3d& world_from_camera);
+
+enum class GraspOutcome {
+  kSucceeded,        ///< lifted and held
+  kCollision,        ///< a finger hit something on the way down
+  kEmpty,            ///< the fingers closed on nothing
+  kTooWide,          ///< the object between the fingers is wider than the opening
+  kMultipleObjects,  ///< the fingers touched different objects
+  kSlipped,          ///< contact outside the friction cone, or friction cannot hold the weight
+};
+
+/// "succeeded", "collision", "empty", "too_wide", "multiple_objects", "slipped".
+const char* GraspOutcomeName(GraspOutcome outcome);
+
+struct GraspExecution {
+  GraspOutcome outcome = GraspOutcome::kEmpty;
+  std::string reason;             ///< a sentence saying why, with the numbers that decided it
+  int instance_id = 0;            ///< the object held (or touched), 0 when none
+  double contact_width_m = 0.0;   ///< l_c: finger gap at first contact with both fingers
+  double grasped_width_m = 0.0;   ///< l_g: finger gap after squeezing
+  double deformation_rate = 0.0;  ///< (l_c - l_g) / l_c
+  bool damaged = false;           ///< deformation_rate > 0.2
+  float stiffness_left = 0.0f;    ///< surface stiffness under each finger at contact
+  float stiffness_right = 0.0f;
+  bool succeeded() const { return outcome == GraspOutcome::kSucceeded; }
+};
+
+/// Evaluates `grasp` in `scene` (raycaster built from the same scene). Errors: kInvalidArgument
+/// for non-finite numbers, an opening outside (0, stroke], or gripper sizes <= 0.
+core::Result<GraspExecution> ExecuteGrasp(const SimScene& scene, const SceneRaycaster& raycaster,
+                                          const SimGrasp& grasp, const SimGripper& gripper);
+
+}  // namespace softgrasp::sim

@@ -1,0 +1,50 @@
+#pragma once
+/// Ray queries against a whole simulated scene (support + objects, world frame W), on Embree 3.
+/// Rendering (render.h) and grasp execution (sim/grasp) both ask their questions through this.
+
+#include <Eigen/Core>
+#include <memory>
+#include <optional>
+
+#include "service/core/status.h"
+#include "sim/scene/scene.h"
+
+namespace softgrasp::sim {
+
+/// What a ray hit first.
+struct RayHit {
+  double distance_m = 0.0;   ///< along the (unit) ray direction from its origin
+  Eigen::Vector3d point_w;   ///< hit point in W
+  Eigen::Vector3d normal_w;  ///< unit geometric normal of the hit triangle, facing outward
+  int instance_id = 0;       ///< 0 = the support, else PlacedObject::instance_id
+  float stiffness = 0.0f;    ///< quantised surface stiffness at the hit; 0 on the support
+};
+
+/// An immutable BVH over a snapshot of a scene. Build a new one after the scene changes (for
+/// example after an object is picked). Thread-safe for concurrent queries once built.
+class SceneRaycaster {
+ public:
+  /// Errors: kInvalidArgument when an object's mesh is empty, has bad indices, non-finite
+  /// vertices, or a vertex_stiffness of the wrong length; kInternal when Embree fails.
+  static core::Result<SceneRaycaster> Build(const SimScene& scene);
+
+  SceneRaycaster(SceneRaycaster&&) noexcept;
+  SceneRaycaster& operator=(SceneRaycaster&&) noexcept;
+  ~SceneRaycaster();
+
+  /// The first hit along origin_w + t * direction_w for t in [min_distance_m, max_distance_m];
+  /// direction_w need not be unit length (it is normalised; distances are in metres).
+  std::optional<RayHit> Cast(const Eigen::Vector3d& origin_w, const Eigen::Vector3d& direction_w,
+                             double max_distance_m, double min_distance_m = 0.0) const;
+
+  /// True when any surface crosses the segment from origin_w to origin_w + direction_w * max.
+  bool Occluded(const Eigen::Vector3d& origin_w, const Eigen::Vector3d& direction_w,
+                double max_distance_m, double min_distance_m = 0.0) const;
+
+ private:
+  struct Impl;
+  explicit SceneRaycaster(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace softgrasp::sim

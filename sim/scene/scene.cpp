@@ -1,0 +1,90 @@
+#include "sim/scene/scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace softgrasp::sim {
+namespace {
+
+// Appends an axis-aligned box [lo, hi] as 12 outward triangles.
+void AppendBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, mesh::TriangleMesh* out) {
+  const int base = static_cast<int>(out->vertices.size());
+  for (int i = 0; i < 8; ++i) {
+    out->vertices.push_back(
+        {(i & 1) ? hi.x() : lo.x(), (i & 2) ? hi.y() : lo.y(), (i & 4) ? hi.z() : lo.z()});
+  }
+  // Corner index = x + 2y + 4z; each quad listed counter-clockwise seen from outside.
+  constexpr int kQuads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                                {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : kQuads) {
+    out->faces.push_back({base + q[0], base + q[1], base + q[2]});
+    out->faces.push_back({base + q[0], base + q[2], base + q[3]});
+  }
+}
+
+}  // namespace
+
+float QuantizeStiffness(float score) {
+  if (std::isnan(score)) return kMinStiffness;
+  const float clamped = std::clamp(score, kMinStiffness, kMaxStiffness);
+  return std::round(clamped * 10.0f) / 10.0f;
+}
+
+const char* SupportKindName(Support::Kind kind) {
+  return kind == Support::Kind::kTable ? "table" : "bin";
+}
+
+mesh::TriangleMesh SupportMesh(const Support& s) {
+  mesh::TriangleMesh out;
+  const double hx = s.inner_size_x_m / 2.0;
+  const double hy = s.inner_size_y_m / 2.0;
+  AppendBox({-hx, -hy, -s.thickness_m}, {hx, hy, 0.0}, &out);
+  if (s.kind == Support::Kind::kBin) {
+    const double t = s.wall_thickness_m;
+    const double z0 = -s.thickness_m;
+    const double z1 = s.wall_height_m;
+    AppendBox({-hx - t, -hy - t, z0}, {-hx, hy + t, z1}, &out);  // -x wall, full depth
+    AppendBox({hx, -hy - t, z0}, {hx + t, hy + t, z1}, &out);    // +x wall, full depth
+    AppendBox({-hx, -hy - t, z0}, {hx, -hy, z1}, &out);          // -y wall, between the others
+    AppendBox({-hx, hy, z0}, {hx, hy + t, z1}, &out);            // +y wall
+  }
+  return out;
+}
+
+const PlacedObject* SimScene::Find(int instance_id) const {
+  for (const PlacedObject& p : objects) {
+    if (p.instance_id == instance_id) return &p;
+  }
+  return nullptr;
+}
+
+bool SimScene::Remove(int instance_id) {
+  const auto it = std::find_if(objects.begin(), objects.end(),
+                               [&](const PlacedObject& p) { return p.instance_id == instance_id; });
+  if (it == objects.end()) return false;
+  objects.erase(it);
+  return true;
+}
+
+nlohmann::json PlacedObjectToJson(const PlacedObject& placed) {
+  const Eigen::Vector3d t = placed.world_from_object.translation();
+  const Eigen::Quaterniond q(placed.world_from_object.rotation());
+  nlohmann::json j;
+  j["instance_id"] = placed.instance_id;
+  j["category"] = placed.object ? placed.object->category : "";
+  j["shape"] = placed.object ? placed.object->shape : nlohmann::json::object();
+  j["mass_kg"] = placed.object ? placed.object->mass_kg : 0.0;
+  j["position_m"] = {t.x(), t.y(), t.z()};
+  j["quaternion_xyzw"] = {q.x(), q.y(), q.z(), q.w()};
+  return j;
+}
+
+nlohmann::json SupportToJson(const Support& s) {
+  return {{"kind", SupportKindName(s.kind)},
+          {"inner_size_m", {s.inner_size_x_m, s.inner_size_y_m}},
+          {"wall_height_m", s.wall_height_m},
+          {"wall_thickness_m", s.wall_thickness_m},
+          {"thickness_m", s.thickness_m}};
+}
+
+}  // namespace softgrasp::sim
