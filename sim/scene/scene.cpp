@@ -34,20 +34,29 @@ const char* SupportKindName(Support::Kind kind) {
   return kind == Support::Kind::kTable ? "table" : "bin";
 }
 
-mesh::TriangleMesh SupportMesh(const Support& s) {
-  mesh::TriangleMesh out;
+std::vector<SupportBox> SupportBoxes(const Support& s) {
   const double hx = s.inner_size_x_m / 2.0;
   const double hy = s.inner_size_y_m / 2.0;
-  AppendBox({-hx, -hy, -s.thickness_m}, {hx, hy, 0.0}, &out);
-  if (s.kind == Support::Kind::kBin) {
-    const double t = s.wall_thickness_m;
-    const double z0 = -s.thickness_m;
-    const double z1 = s.wall_height_m;
-    AppendBox({-hx - t, -hy - t, z0}, {-hx, hy + t, z1}, &out);  // -x wall, full depth
-    AppendBox({hx, -hy - t, z0}, {hx + t, hy + t, z1}, &out);    // +x wall, full depth
-    AppendBox({-hx, -hy - t, z0}, {hx, -hy, z1}, &out);          // -y wall, between the others
-    AppendBox({-hx, hy, z0}, {hx, hy + t, z1}, &out);            // +y wall
+  const double hg = s.ground_size_m / 2.0;
+  if (s.kind == Support::Kind::kTable) {
+    return {{{-hg, -hg, -s.thickness_m}, {hg, hg, 0.0}}};
   }
+  const double t = s.wall_thickness_m;
+  const double z0 = -s.thickness_m;
+  const double z1 = s.wall_height_m;
+  return {
+      {{-hg, -hg, z0 - s.thickness_m}, {hg, hg, z0}},  // the table the bin stands on
+      {{-hx, -hy, z0}, {hx, hy, 0.0}},                 // bin floor
+      {{-hx - t, -hy - t, z0}, {-hx, hy + t, z1}},     // -x wall, full depth
+      {{hx, -hy - t, z0}, {hx + t, hy + t, z1}},       // +x wall, full depth
+      {{-hx, -hy - t, z0}, {hx, -hy, z1}},             // -y wall, between the others
+      {{-hx, hy, z0}, {hx, hy + t, z1}},               // +y wall
+  };
+}
+
+mesh::TriangleMesh SupportMesh(const Support& s) {
+  mesh::TriangleMesh out;
+  for (const SupportBox& box : SupportBoxes(s)) AppendBox(box.min_w, box.max_w, &out);
   return out;
 }
 
@@ -80,11 +89,10 @@ nlohmann::json PlacedObjectToJson(const PlacedObject& placed) {
 }
 
 nlohmann::json SupportToJson(const Support& s) {
-  return {{"kind", SupportKindName(s.kind)},
-          {"inner_size_m", {s.inner_size_x_m, s.inner_size_y_m}},
-          {"wall_height_m", s.wall_height_m},
-          {"wall_thickness_m", s.wall_thickness_m},
-          {"thickness_m", s.thickness_m}};
+  return {
+      {"kind", SupportKindName(s.kind)},  {"inner_size_m", {s.inner_size_x_m, s.inner_size_y_m}},
+      {"wall_height_m", s.wall_height_m}, {"wall_thickness_m", s.wall_thickness_m},
+      {"thickness_m", s.thickness_m},     {"ground_size_m", s.ground_size_m}};
 }
 
 }  // namespace softgrasp::sim

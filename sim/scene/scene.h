@@ -45,8 +45,9 @@ struct PlacedObject {
   Eigen::Isometry3d world_from_object = Eigen::Isometry3d::Identity();
 };
 
-/// What the objects rest on: an open table top or a bin (floor plus four walls), centred on W's
-/// origin, top of the table / bin floor at z = 0.
+/// What the objects rest on: an open table top or a bin (floor plus four walls) standing on a
+/// table, centred on W's origin, top of the table / bin floor at z = 0. Objects are spawned over
+/// the inner area; the surrounding table (ground_size_m square) fills the camera's view.
 struct Support {
   enum class Kind { kTable, kBin };
   Kind kind = Kind::kBin;
@@ -55,12 +56,24 @@ struct Support {
   double wall_height_m = 0.10;     ///< bin only: wall height above the floor
   double wall_thickness_m = 0.01;  ///< bin only
   double thickness_m = 0.02;       ///< table top / bin floor thickness (below z = 0)
+  double ground_size_m = 1.5;      ///< side of the table top (kTable) / the table under the bin
 };
+
+/// An axis-aligned box in W.
+struct SupportBox {
+  Eigen::Vector3d min_w;
+  Eigen::Vector3d max_w;
+};
+
+/// The support as boxes in W: kTable: the table top (ground_size_m square, top at z = 0);
+/// kBin: the table under the bin (top at z = -thickness_m), the bin floor (inner area, top at
+/// z = 0) and four walls around it (from the table top up to wall_height_m).
+std::vector<SupportBox> SupportBoxes(const Support& support);
 
 /// "table" / "bin".
 const char* SupportKindName(Support::Kind kind);
 
-/// The support as closed boxes in W (one for a table, five for a bin), outward-oriented.
+/// SupportBoxes as one mesh of closed, outward-oriented boxes (12 triangles each).
 mesh::TriangleMesh SupportMesh(const Support& support);
 
 /// A whole scene: the support and the objects resting on it.
@@ -78,7 +91,8 @@ struct SimScene {
 /// JSON for manifests: {"instance_id", "category", "shape", "mass_kg", "position_m": [x,y,z],
 /// "quaternion_xyzw": [x,y,z,w]} per object (world_from_object).
 nlohmann::json PlacedObjectToJson(const PlacedObject& placed);
-/// {"kind", "inner_size_m": [x, y], "wall_height_m", "wall_thickness_m", "thickness_m"}.
+/// {"kind", "inner_size_m": [x, y], "wall_height_m", "wall_thickness_m", "thickness_m",
+/// "ground_size_m"}.
 nlohmann::json SupportToJson(const Support& support);
 
 }  // namespace softgrasp::sim

@@ -16,7 +16,7 @@ TEST(QuantizeStiffness, RoundsToTenLevelsAndClamps) {
   EXPECT_FLOAT_EQ(QuantizeStiffness(std::nanf("")), 0.1f);
 }
 
-TEST(SupportMesh, TableIsOneClosedBoxWithTopAtZeroAndBinHasFiveBoxes) {
+TEST(SupportMesh, TableIsOneClosedBoxWithTopAtZeroAndBinStandsOnATable) {
   Support table;
   table.kind = Support::Kind::kTable;
   const mesh::TriangleMesh t = SupportMesh(table);
@@ -27,11 +27,20 @@ TEST(SupportMesh, TableIsOneClosedBoxWithTopAtZeroAndBinHasFiveBoxes) {
   EXPECT_DOUBLE_EQ(top, 0.0);
 
   Support bin;
+  const std::vector<SupportBox> boxes = SupportBoxes(bin);
+  ASSERT_EQ(boxes.size(), 6u);
+  EXPECT_DOUBLE_EQ(boxes[0].max_w.z(), -bin.thickness_m);  // table top under the bin
+  EXPECT_DOUBLE_EQ(boxes[1].max_w.z(), 0.0);               // bin floor
   const mesh::TriangleMesh b = SupportMesh(bin);
-  EXPECT_EQ(b.faces.size(), 5u * 12u);
+  EXPECT_EQ(b.faces.size(), 6u * 12u);
   double wall_top = -1.0;
   for (const auto& v : b.vertices) wall_top = std::max(wall_top, v[2]);
   EXPECT_DOUBLE_EQ(wall_top, bin.wall_height_m);
+  // The walls enclose the floor: every wall's inner face lies on the floor's border.
+  EXPECT_DOUBLE_EQ(boxes[2].max_w.x(), -bin.inner_size_x_m / 2);
+  EXPECT_DOUBLE_EQ(boxes[3].min_w.x(), bin.inner_size_x_m / 2);
+  EXPECT_DOUBLE_EQ(boxes[4].max_w.y(), -bin.inner_size_y_m / 2);
+  EXPECT_DOUBLE_EQ(boxes[5].min_w.y(), bin.inner_size_y_m / 2);
 }
 
 TEST(SimScene, FindAndRemoveByInstanceId) {
