@@ -9,9 +9,14 @@ PACKAGES=(
   # libraries of the service, the simulator and the models
   libopencv-dev libeigen3-dev nlohmann-json3-dev libtiff-dev libpng-dev zlib1g-dev libyaml-cpp-dev
   cyclonedds-dev cyclonedds-tools libembree-dev libpcl-dev libbullet-dev libtorch-dev libcgal-dev
-  # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  # tests and benchmarks; chromium drives the browser tests of the web page (tests/web)
+  libgtest-dev libgmock-dev libbenchmark-dev chromium
 )
+# node and npm bundle the web page (scripts/build.sh). Any node >= 18 will do: Debian's nodejs and
+# npm are added only when no node is on the PATH, so a newer one already installed is kept.
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  PACKAGES+=(nodejs npm)
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do

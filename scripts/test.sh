@@ -1,18 +1,19 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds, and runs the whole test suite (unit, integration, contract,
-# fuzz-corpus replay), then a sanitizer build of the HTTP and codec tests.
+# fuzz-corpus replay, the page in headless chromium), then a sanitizer build of the HTTP and
+# codec tests.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$root/scripts/setup.sh"
 bash "$root/scripts/build.sh"
 ctest --test-dir "${SOFTGRASP_BUILD_DIR:-$root/build}" -j "$(nproc)" --output-on-failure
 
-# The code that reads bytes from outside (HTTP parsing, image and mesh decoders), once more under
-# AddressSanitizer + UBSan: their unit tests and the fuzz-corpus replays.
-SOFTGRASP_BUILD_DIR="$root/build-asan" \
+# The code that reads bytes from outside (HTTP parsing, static files, image and mesh decoders),
+# once more under AddressSanitizer + UBSan: their unit tests and the fuzz-corpus replays.
+SOFTGRASP_BUILD_DIR="$root/build-asan" SOFTGRASP_WEB=0 \
 SOFTGRASP_TARGETS="http_message_test http_parser_test http_router_test http_server_test
-  io_npy_test io_png_tiff_test io_intrinsics_test io_fuzz_corpus_test mesh_io_test
-  http_request_replay depth_decode_replay mesh_decode_replay" \
+  http_static_files_test io_npy_test io_png_tiff_test io_intrinsics_test io_fuzz_corpus_test
+  mesh_io_test http_request_replay depth_decode_replay mesh_decode_replay" \
   bash "$root/scripts/build.sh" -DSOFTGRASP_SANITIZER=address,undefined -DSOFTGRASP_BUILD_BENCHMARKS=OFF
 # Tests of targets not built in this pass show up as *_NOT_BUILT: skip them.
 ctest --test-dir "$root/build-asan" -j "$(nproc)" --output-on-failure -L 'http|io|mesh|fuzz' \

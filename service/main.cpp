@@ -2,6 +2,7 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -23,6 +24,13 @@ sigset_t BlockShutdownSignals() {
   return signals;
 }
 
+// The running executable's path, for finding the built web page next to it.
+std::string ExecutablePath(const char* argv0) {
+  std::error_code error;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", error);
+  return error ? std::string(argv0) : self.string();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -36,8 +44,15 @@ int main(int argc, char** argv) {
     std::cout << rest::UsageText();
     return 0;
   }
-  const rest::ServiceConfig& config = command_line.value().config;
+  rest::ServiceConfig& config = command_line.value().config;
+  if (config.web_root.empty()) config.web_root = rest::DefaultWebRoot(ExecutablePath(argv[0]));
   std::cerr << "config " << rest::ConfigToJson(config) << "\n";
+  if (std::error_code error;
+      !std::filesystem::is_regular_file(std::filesystem::path(config.web_root) / "index.html",
+                                        error)) {
+    std::cerr << "softgrasp-server: no web page in " << config.web_root
+              << " (GET / answers 404): run scripts/build.sh or pass --web-root\n";
+  }
 
   const sigset_t signals = BlockShutdownSignals();
   try {

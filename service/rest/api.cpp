@@ -2,11 +2,13 @@
 
 #include <array>
 #include <chrono>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
 #include "service/core/fge.h"
 #include "service/core/preprocess.h"
+#include "service/http/static_files.h"
 #include "service/io/depth_codec.h"
 #include "service/io/overlay.h"
 #include "service/rest/build_info.h"
@@ -99,6 +101,13 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config)
   if (!parsed.ok()) return ErrorToResponse(parsed.error());
   const GraspRequest& in = parsed.value();
   const double decode_ms = MillisecondsSince(start);
+  if (in.output == OutputFormat::kPng && !in.draw_grasps) {
+    // The picture alone needs no planning; the client asks for the grasps separately.
+    http::Response png =
+        http::Response::Bytes(200, "image/png", io::EncodePng(io::ColorizeDepth(in.depth)));
+    png.set_header("X-Grasp-Count", "0");
+    return png;
+  }
 
   const auto preprocess_start = Clock::now();
   auto scene = core::Preprocess(in.depth, in.camera);
@@ -208,6 +217,24 @@ http::Response Fractals(const http::Request& request, const ServiceConfig& confi
   return file;
 }
 
+// The page loads only its own bundled files and talks only to this service.
+constexpr const char* kPageSecurityPolicy =
+    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' blob: data:; "
+    "connect-src 'self' blob:; object-src 'none'; base-uri 'none'; form-action 'none'; "
+    "frame-ancestors 'none'";
+
+http::Response WebPage(const http::StaticFiles& files, const http::Request& request) {
+  http::Response page = files.Serve(request, {"index.html"});
+  if (page.status == 404) {
+    return http::ErrorResponse(404, "not_found",
+                               "the web page is not built: run scripts/build.sh, or point "
+                               "--web-root (web.root, SOFTGRASP_WEB_ROOT) at a built page");
+  }
+  page.set_header("Content-Security-Policy", kPageSecurityPolicy);
+  page.set_header("Referrer-Policy", "no-referrer");
+  return page;
+}
+
 }  // namespace
 
 int HttpStatusFor(core::ErrorCode code) {
@@ -235,6 +262,14 @@ http::Router BuildRouter(const ServiceConfig& config) {
              [config](const http::Request& r) { return Grasps(r, config); });
   router.Add("POST", "/v1/fractals",
              [config](const http::Request& r) { return Fractals(r, config); });
+
+  // The browser page (docs/web.md): index.html at "/", content-hashed bundles under /assets/.
+  auto files =
+      std::make_shared<const http::StaticFiles>(http::StaticFilesOptions{config.web_root});
+  router.Add("GET", "/", [files](const http::Request& r) { return WebPage(*files, r); });
+  router.Add("GET", "/assets/{file}", [files](const http::Request& r) {
+    return files->Serve(r, {"assets", r.path_params.at("file")});
+  });
   return router;
 }
 

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
@@ -93,6 +94,7 @@ std::map<std::string, std::map<std::string, Setter>> Sections(ServiceConfig& c) 
       {"fractals",
        {{"max_points", Number(&c.max_fractal_points, 100, 1e6)},
         {"max_attempts", Number(&c.max_fractal_attempts, 1, 1e7)}}},
+      {"web", {{"root", String(&c.web_root)}}},
   };
 }
 
@@ -149,6 +151,7 @@ core::Result<ServiceConfig> ApplyConfigJson(ServiceConfig config, const std::str
 
 core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config) {
   if (const char* host = std::getenv("SOFTGRASP_HOST")) config.server.host = host;
+  if (const char* web_root = std::getenv("SOFTGRASP_WEB_ROOT")) config.web_root = web_root;
   struct IntVar {
     const char* name;
     std::function<void(long long)> set;
@@ -190,7 +193,8 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
       out.help = true;
       return out;
     }
-    if (a == "--host" || a == "--port" || a == "--config" || a == "--workers") {
+    if (a == "--host" || a == "--port" || a == "--config" || a == "--workers" ||
+        a == "--web-root") {
       if (i + 1 >= args.size()) {
         return MakeError(ErrorCode::kInvalidArgument, a + " needs a value", a);
       }
@@ -211,6 +215,7 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
   if (!env.ok()) return env.error();
   config = env.value();
   if (const auto host = flags.find("--host"); host != flags.end()) config.server.host = host->second;
+  if (const auto web = flags.find("--web-root"); web != flags.end()) config.web_root = web->second;
   for (const char* name : {"--port", "--workers"}) {
     const auto flag = flags.find(name);
     if (flag == flags.end()) continue;
@@ -231,9 +236,12 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
 
 std::string UsageText() {
   return "usage: softgrasp-server [--host HOST] [--port PORT] [--workers N] [--config FILE]\n"
+         "                        [--web-root DIR]\n"
          "  --port 0 picks a free port; the chosen address is printed as\n"
-         "  'listening on http://HOST:PORT'. Environment: SOFTGRASP_HOST, SOFTGRASP_PORT,\n"
-         "  SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES, SOFTGRASP_MAX_IMAGE_PIXELS.\n"
+         "  'listening on http://HOST:PORT'. --web-root: the built web page served at GET /\n"
+         "  (default: ../web next to the executable's folder). Environment: SOFTGRASP_HOST,\n"
+         "  SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,\n"
+         "  SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT.\n"
          "  Precedence: flags > environment > config file > defaults (docs/configuration.md).\n";
 }
 
@@ -274,8 +282,21 @@ std::string ConfigToJson(const ServiceConfig& c) {
         {"nms_radius_px", f.nms_radius_px}}},
       {"depth", {{"png_unit_m", c.png_unit_m}, {"max_image_pixels", c.max_image_pixels}}},
       {"fractals", {{"max_points", c.max_fractal_points}, {"max_attempts", c.max_fractal_attempts}}},
+      {"web", {{"root", c.web_root}}},
   };
   return j.dump();
+}
+
+std::string DefaultWebRoot(const std::string& executable_path) {
+  namespace fs = std::filesystem;
+  // Lexically, not through the file system: "<bin>/.." must not depend on what <bin> links to.
+  const fs::path prefix = fs::path(executable_path).lexically_normal().parent_path().parent_path();
+  const fs::path candidates[] = {prefix / "web", prefix / "share" / "softgrasp" / "web"};
+  for (const fs::path& candidate : candidates) {
+    std::error_code error;
+    if (fs::is_regular_file(candidate / "index.html", error)) return candidate.string();
+  }
+  return candidates[0].string();
 }
 
 }  // namespace softgrasp::rest

@@ -23,6 +23,9 @@ struct ServiceConfig {
   long long max_image_pixels = 4096LL * 4096;  ///< decompression-bomb guard, before decoding
   int max_fractal_points = 200'000;      ///< POST /v1/fractals "points" cap (400 above it)
   int max_fractal_attempts = 20'000;     ///< IFS draws before a fractal request gives up (422)
+  /// Folder of the built web page served at GET / and /assets/ (scripts/build.sh writes it to
+  /// <build>/web). Empty: softgrasp-server uses DefaultWebRoot() next to its executable.
+  std::string web_root;
 };
 
 /// Applies a JSON config document (see docs/configuration.md) onto `config`.
@@ -30,11 +33,12 @@ struct ServiceConfig {
 core::Result<ServiceConfig> ApplyConfigJson(ServiceConfig config, const std::string& json_text);
 
 /// Applies SOFTGRASP_HOST, SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,
-/// SOFTGRASP_MAX_IMAGE_PIXELS from the environment.
+/// SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT from the environment.
 core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config);
 
-/// Parses argv: --host H, --port P, --config FILE, --workers N, --help. The config file is
-/// applied first, then the environment, then the other flags. `help` is set for --help.
+/// Parses argv: --host H, --port P, --config FILE, --workers N, --web-root DIR, --help. The
+/// config file is applied first, then the environment, then the other flags. `help` is set for
+/// --help.
 struct CommandLine {
   ServiceConfig config;
   bool help = false;
@@ -42,6 +46,12 @@ struct CommandLine {
 core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args);
 
 std::string UsageText();
+
+/// Where the built page is when no web root is configured, given the server executable's path
+/// <prefix>/<bin>/softgrasp-server: "<prefix>/web" (the build tree: build/service/ -> build/web)
+/// if it holds an index.html, else "<prefix>/share/softgrasp/web" (an installed layout) if that
+/// does, else "<prefix>/web".
+std::string DefaultWebRoot(const std::string& executable_path);
 
 /// The effective configuration as JSON (no secrets exist yet; any added later are masked here).
 std::string ConfigToJson(const ServiceConfig& config);

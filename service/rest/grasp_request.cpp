@@ -184,7 +184,7 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
 
   double png_unit_m = config.png_unit_m;
   for (const auto& [key, text] : fields.values) {
-    if (key == "format" || key == "strategy") continue;
+    if (key == "format" || key == "strategy" || key == "draw") continue;
     if (key == "png_unit_m") {
       auto v = ParseNumber(key, text, 1e-6, 1.0);
       if (!v.ok()) return v.error();
@@ -213,6 +213,12 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   auto output = ResolveOutput(request, fields);
   if (!output.ok()) return output.error();
   out.output = output.value();
+  if (const auto d = fields.values.find("draw"); d != fields.values.end()) {
+    if (d->second != "grasps" && d->second != "none") {
+      return MakeError(ErrorCode::kInvalidArgument, "draw must be 'grasps' or 'none'", "draw");
+    }
+    out.draw_grasps = d->second == "grasps";
+  }
 
   auto format = io::SniffDepthFormat(*fields.depth_bytes);
   if (!format.ok()) return format.error();

@@ -23,6 +23,9 @@ struct GraspRequest {
   core::Gripper gripper;
   core::FgeParams fge;
   OutputFormat output = OutputFormat::kJson;
+  /// PNG answers only: field "draw" = "grasps" (default) or "none" (the colour-mapped depth
+  /// alone, e.g. as the background a client draws its own grasps on).
+  bool draw_grasps = true;
 };
 
 /// Validates and decodes. Errors name the field at fault (depth, fx, top_k, ...).

@@ -1,0 +1,124 @@
+// Shared by the browser tests: where things are, the real server on a free port, and Debian's
+// chromium driven headless by playwright-core (from web/node_modules, installed by `npm ci`).
+import { spawn } from 'node:child_process';
+import { existsSync, mkdirSync } from 'node:fs';
+import { createRequire } from 'node:module';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+
+/** Paths, from the environment CTest sets (tests/web/CMakeLists.txt), else the default layout. */
+export const paths = (() => {
+  const source = process.env.SOFTGRASP_SOURCE_DIR || path.resolve(here, '..', '..');
+  const build = process.env.SOFTGRASP_BUILD_DIR || path.join(source, 'build');
+  return {
+    source,
+    server: process.env.SOFTGRASP_SERVER || path.join(build, 'service', 'softgrasp-server'),
+    webRoot: process.env.SOFTGRASP_WEB_ROOT || path.join(build, 'web'),
+    artifacts: process.env.SOFTGRASP_ARTIFACT_DIR || path.join(build, 'tests', 'web', 'artifacts'),
+    // CI clones the project next to shared/.
+    data: path.resolve(source, '..', 'shared', 'data'),
+    chromium: process.env.SOFTGRASP_CHROMIUM || '/usr/bin/chromium',
+  };
+})();
+
+export function artifactPath(name) {
+  mkdirSync(paths.artifacts, { recursive: true });
+  return path.join(paths.artifacts, name);
+}
+
+/** Fails early with what to do when something the tests need is missing. */
+export function checkPrerequisites() {
+  const missing = [];
+  if (!existsSync(paths.server)) missing.push(`server ${paths.server} (run scripts/build.sh)`);
+  if (!existsSync(path.join(paths.webRoot, 'index.html'))) {
+    missing.push(`built page ${paths.webRoot}/index.html (run scripts/build.sh)`);
+  }
+  if (!existsSync(paths.chromium)) missing.push(`${paths.chromium} (run scripts/setup.sh)`);
+  if (!existsSync(paths.data)) missing.push(`data folder ${paths.data} (shared/ beside the project)`);
+  if (missing.length) throw new Error(`browser tests need: ${missing.join('; ')}`);
+}
+
+/** playwright-core as the web package installed it. */
+export function playwright() {
+  const require = createRequire(path.join(paths.source, 'web', 'package.json'));
+  return require('playwright-core');
+}
+
+/**
+ * Starts softgrasp-server on 127.0.0.1, port 0, serving the built page. Resolves with its base
+ * URL once it prints "listening on http://HOST:PORT".
+ */
+export function startServer({ timeoutMs = 20_000 } = {}) {
+  const child = spawn(paths.server,
+    ['--host', '127.0.0.1', '--port', '0', '--workers', '2', '--web-root', paths.webRoot],
+    { stdio: ['ignore', 'pipe', 'pipe'] });
+  let log = '';
+  child.stderr.on('data', (chunk) => { log = (log + chunk).slice(-20_000); });
+  const ready = new Promise((resolve, reject) => {
+    const timer = setTimeout(() => {
+      child.kill('SIGKILL');
+      reject(new Error(`server did not start within ${timeoutMs} ms:\n${log}`));
+    }, timeoutMs);
+    let out = '';
+    child.stdout.on('data', (chunk) => {
+      out += chunk;
+      const match = /listening on (http:\/\/\S+)/.exec(out);
+      if (match) {
+        clearTimeout(timer);
+        resolve(match[1]);
+      }
+    });
+    child.on('exit', (code, signal) => {
+      clearTimeout(timer);
+      reject(new Error(`server exited (${code ?? signal}) before listening:\n${log}`));
+    });
+  });
+  const stop = () => new Promise((resolve) => {
+    if (child.exitCode !== null || child.signalCode !== null) return resolve();
+    const timer = setTimeout(() => child.kill('SIGKILL'), 10_000);
+    child.once('exit', () => {
+      clearTimeout(timer);
+      resolve();
+    });
+    child.kill('SIGTERM'); // graceful: in-flight requests finish
+  });
+  return { ready, stop, log: () => log };
+}
+
+/** Debian's chromium, headless, with nothing talking to the network on its own. */
+export async function launchBrowser() {
+  const { chromium } = playwright();
+  return chromium.launch({
+    executablePath: paths.chromium,
+    headless: true,
+    timeout: 30_000,
+    args: [
+      '--no-sandbox',
+      '--disable-background-networking',
+      '--disable-component-update',
+      '--disable-default-apps',
+      '--disable-sync',
+      '--disable-extensions',
+      '--disable-dev-shm-usage',
+      '--no-first-run',
+      '--no-default-browser-check',
+      '--metrics-recording-only',
+      '--mute-audio',
+      // WebGL without a GPU: SwiftShader, asked for explicitly (CI machines have no GPU).
+      '--use-angle=swiftshader',
+      '--enable-unsafe-swiftshader',
+    ],
+  });
+}
+
+/** Records console errors and uncaught exceptions of a page. */
+export function watchConsole(page) {
+  const errors = [];
+  page.on('console', (message) => {
+    if (message.type() === 'error') errors.push(`console: ${message.text()}`);
+  });
+  page.on('pageerror', (error) => errors.push(`pageerror: ${error.message}`));
+  return errors;
+}

@@ -1,0 +1,239 @@
+// The grasps panel: upload a depth image (plus optional intrinsics and gripper settings), show
+// the colour-mapped depth with the grasps drawn over it, the table of grasps and downloads.
+//
+// Three requests with the same form go out together: JSON (the grasps), format=png&draw=none
+// (the depth picture the page draws its own grasps on, so a row can be highlighted) and
+// format=png (the service's own overlay picture, offered as a download).
+
+import { call, describeError } from './api.js';
+import { angleDegrees, graspShape, isDrawable } from './grasp_geometry.js';
+import {
+  clearError, fileSizeText, fixed, saveBlob, setDownload, showError, whileBusy,
+} from './ui.js';
+
+const BEST_COLOUR = 'rgb(0, 255, 0)'; // as the service's overlay
+const OTHER_COLOUR = 'rgb(255, 255, 255)';
+const SELECTED_COLOUR = 'rgb(255, 0, 255)';
+
+const GRIPPER_FIELDS = ['opening_stroke_mm', 'finger_width_mm', 'finger_thickness_mm',
+  'finger_length_mm'];
+const SEARCH_FIELDS = ['top_k', 'num_angles', 'num_height_steps', 'height_step_mm'];
+const INTRINSIC_FIELDS = ['fx', 'fy', 'cx', 'cy'];
+
+/** Fills the form's defaults from GET /v1/info. */
+function applyDefaults(root, info) {
+  const defaults = (info && info.defaults) || {};
+  const gripper = defaults.gripper || {};
+  for (const name of GRIPPER_FIELDS) {
+    if (typeof gripper[name] === 'number') root.querySelector(`#${name}`).value = gripper[name];
+  }
+  const search = {
+    top_k: defaults.top_k,
+    num_angles: defaults.num_angles,
+    num_height_steps: defaults.num_height_steps,
+    height_step_mm: typeof defaults.height_step_m === 'number'
+      ? Number((defaults.height_step_m * 1000).toPrecision(6)) : undefined,
+  };
+  for (const name of SEARCH_FIELDS) {
+    if (typeof search[name] === 'number') root.querySelector(`#${name}`).value = search[name];
+  }
+  const strategy = root.querySelector('#strategy');
+  strategy.replaceChildren();
+  for (const name of (info && info.strategies) || ['fge']) {
+    const option = document.createElement('option');
+    option.value = name;
+    option.textContent = name === 'fge' ? 'FGE (fast graspability evaluation)' : name;
+    strategy.append(option);
+  }
+}
+
+/** The request form: files and every non-empty field. */
+function buildForm(root, depthFile) {
+  const form = new FormData();
+  form.append('depth', depthFile, depthFile.name);
+  const intrinsics = root.querySelector('#intrinsics-file').files[0];
+  if (intrinsics) form.append('intrinsics', intrinsics, intrinsics.name);
+  for (const name of [...INTRINSIC_FIELDS, ...GRIPPER_FIELDS, ...SEARCH_FIELDS]) {
+    const value = root.querySelector(`#${name}`).value.trim();
+    if (value !== '') form.append(name, value);
+  }
+  form.append('strategy', root.querySelector('#strategy').value);
+  return form;
+}
+
+/** Draws the depth picture and, when asked, the grasps (selected one last, on top). */
+function drawPicture(canvas, depthBitmap, grasps, selected, showGrasps) {
+  const ctx = canvas.getContext('2d');
+  canvas.width = depthBitmap.width;
+  canvas.height = depthBitmap.height;
+  ctx.drawImage(depthBitmap, 0, 0);
+  if (!showGrasps) return;
+  const order = grasps.map((g, i) => i).filter((i) => i !== selected).reverse();
+  if (selected >= 0) order.push(selected);
+  for (const i of order) {
+    const grasp = grasps[i];
+    if (!isDrawable(grasp)) continue;
+    const colour = i === selected && selected !== 0 ? SELECTED_COLOUR
+      : i === 0 ? BEST_COLOUR : OTHER_COLOUR;
+    const emphasised = i === 0 || i === selected;
+    drawGrasp(ctx, graspShape(grasp), colour, emphasised);
+  }
+}
+
+function drawGrasp(ctx, shape, colour, emphasised) {
+  ctx.strokeStyle = colour;
+  ctx.fillStyle = colour;
+  ctx.lineWidth = emphasised ? 3 : 1;
+  for (const corners of shape.fingers) {
+    ctx.beginPath();
+    ctx.moveTo(corners[0][0], corners[0][1]);
+    for (const p of corners.slice(1)) ctx.lineTo(p[0], p[1]);
+    ctx.closePath();
+    if (emphasised) ctx.fill();
+    ctx.stroke();
+  }
+  ctx.beginPath();
+  ctx.moveTo(shape.line[0][0], shape.line[0][1]);
+  ctx.lineTo(shape.line[1][0], shape.line[1][1]);
+  ctx.stroke();
+  ctx.beginPath();
+  ctx.arc(shape.center[0], shape.center[1], emphasised ? 4 : 2, 0, 2 * Math.PI);
+  ctx.fill();
+}
+
+function cell(text, className) {
+  const td = document.createElement('td');
+  td.textContent = text;
+  if (className) td.className = className;
+  return td;
+}
+
+function fillTable(tbody, grasps, selected, onSelect) {
+  tbody.replaceChildren();
+  grasps.forEach((g, i) => {
+    const row = document.createElement('tr');
+    row.dataset.rank = String(g.rank);
+    const pick = document.createElement('td');
+    const radio = document.createElement('input');
+    radio.type = 'radio';
+    radio.name = 'selected-grasp';
+    radio.value = String(i);
+    radio.checked = i === selected;
+    radio.setAttribute('aria-label', `Highlight grasp ${g.rank}`);
+    radio.addEventListener('change', () => onSelect(i));
+    pick.append(radio);
+    row.append(pick);
+    const p = (g.pose && g.pose.position_m) || [];
+    const q = (g.pose && g.pose.orientation_wxyz) || [];
+    row.append(
+      cell(String(g.rank)),
+      cell(fixed(g.score, 3), 'num'),
+      cell(fixed(g.opening_m * 1000, 1), 'num'),
+      cell(fixed(g.grasp_height_m * 1000, 1), 'num'),
+      cell(fixed(angleDegrees(g.angle_rad), 1), 'num'),
+      cell(p.map((x) => fixed(x * 1000, 1)).join(', '), 'num'),
+      cell(q.map((x) => fixed(x, 3)).join(', '), 'num'),
+    );
+    if (i === selected) row.classList.add('selected');
+    tbody.append(row);
+  });
+}
+
+function summaryText(result, fileName) {
+  const n = result.grasps.length;
+  const image = result.image || {};
+  const camera = result.camera || {};
+  const missing = fixed((image.missing_fraction || 0) * 100, 1);
+  return `${n} grasp${n === 1 ? '' : 's'} in ${fileName}: ${image.width}×${image.height} ` +
+    `${image.format}, ${missing} % missing, camera ${camera.source === 'request' ? 'from the request' : 'default'}` +
+    ` (f ${fixed(camera.fx, 1)} px), ${fixed(result.timing_ms && result.timing_ms.total, 0)} ms.`;
+}
+
+export function mountGraspsPanel(root, info) {
+  const form = root.querySelector('#grasp-form');
+  const depthInput = root.querySelector('#depth-file');
+  const drop = root.querySelector('#depth-drop');
+  const fileName = root.querySelector('#depth-file-name');
+  const progress = root.querySelector('#grasp-progress');
+  const errorBox = root.querySelector('#grasp-error');
+  const results = root.querySelector('#grasp-results');
+  const canvas = root.querySelector('#grasp-canvas');
+  const showGrasps = root.querySelector('#show-grasps');
+  const tbody = root.querySelector('#grasp-table tbody');
+  applyDefaults(root, info);
+
+  const state = { grasps: [], bitmap: null, selected: 0 };
+  const redraw = () => {
+    if (state.bitmap) drawPicture(canvas, state.bitmap, state.grasps, state.selected, showGrasps.checked);
+  };
+  const select = (i) => {
+    state.selected = i;
+    for (const row of tbody.rows) row.classList.toggle('selected', row.rowIndex - 1 === i);
+    redraw();
+  };
+  showGrasps.addEventListener('change', redraw);
+
+  const describeFile = () => {
+    const file = depthInput.files[0];
+    fileName.textContent = file ? `${file.name} (${fileSizeText(file.size)})` : '';
+  };
+  depthInput.addEventListener('change', describeFile);
+  drop.addEventListener('dragover', (event) => {
+    event.preventDefault();
+    event.dataTransfer.dropEffect = 'copy';
+    drop.classList.add('dragging');
+  });
+  drop.addEventListener('dragleave', () => drop.classList.remove('dragging'));
+  drop.addEventListener('drop', (event) => {
+    event.preventDefault();
+    drop.classList.remove('dragging');
+    const file = event.dataTransfer.files[0];
+    if (!file) return;
+    const list = new DataTransfer();
+    list.items.add(file);
+    depthInput.files = list.files;
+    describeFile();
+  });
+
+  root.querySelector('#download-view').addEventListener('click', () => {
+    canvas.toBlob((blob) => blob && saveBlob(blob, 'grasps-view.png'), 'image/png');
+  });
+
+  form.addEventListener('submit', async (event) => {
+    event.preventDefault();
+    clearError(errorBox);
+    const depthFile = depthInput.files[0];
+    if (!depthFile) {
+      showError(errorBox, 'Choose a depth image first (NPY, 16-bit PNG or float TIFF).');
+      depthInput.focus();
+      return;
+    }
+    const body = buildForm(root, depthFile);
+    try {
+      await whileBusy(form, progress, async () => {
+        const [json, depthPng, overlayPng] = await Promise.all([
+          call('/v1/grasps?format=json', { method: 'POST', body }).then((r) => r.text()),
+          call('/v1/grasps?format=png&draw=none', { method: 'POST', body }).then((r) => r.blob()),
+          call('/v1/grasps?format=png', { method: 'POST', body }).then((r) => r.blob()),
+        ]);
+        const result = JSON.parse(json);
+        const bitmap = await createImageBitmap(depthPng);
+        if (state.bitmap) state.bitmap.close();
+        Object.assign(state, { grasps: result.grasps, bitmap, selected: result.grasps.length ? 0 : -1 });
+        const stem = depthFile.name.replace(/\.[^.]*$/, '') || 'depth';
+        setDownload(root.querySelector('#download-json'),
+          new Blob([json], { type: 'application/json' }), `${stem}-grasps.json`);
+        setDownload(root.querySelector('#download-overlay'), overlayPng, `${stem}-grasps.png`);
+        setDownload(root.querySelector('#download-depth'), depthPng, `${stem}-depth.png`);
+        root.querySelector('#grasp-summary').textContent = summaryText(result, depthFile.name);
+        fillTable(tbody, state.grasps, state.selected, select);
+        results.hidden = false;
+        redraw();
+        root.dataset.state = 'done'; // for tests and scripts: the results are on screen
+      });
+    } catch (error) {
+      root.dataset.state = 'error';
+      showError(errorBox, describeError(error));
+    }
+  });
+}
