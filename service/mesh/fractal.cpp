@@ -18,6 +18,8 @@ constexpr double kDivergenceBound = 1e6;
 /// Prefix sizes checked at sigma / 2 before the cloud is complete: 512, 1024, 2048, ...
 constexpr int kFirstCheckpoint = 512;
 constexpr double kPrefixSigmaFactor = 0.5;
+/// Largest merge grid cell on the normalised cloud (longest side 2).
+constexpr double kMaxMergeCell = 0.05;
 
 std::uint64_t SplitMix64(std::uint64_t x) {
   x += 0x9E3779B97F4A7C15ull;
@@ -161,6 +163,10 @@ std::optional<core::Error> ValidateFractalParams(const FractalParams& p) {
                    "must be in [0, 1], got " + std::to_string(p.min_piece_volume_fraction));
   }
   if (auto e = int_range("max_alpha_raises", p.max_alpha_raises, 0, 64)) return e;
+  if (!(p.merge_fraction >= 0.0 && p.merge_fraction <= 0.25)) {
+    return Invalid("merge_fraction",
+                   "must be in [0, 0.25], got " + std::to_string(p.merge_fraction));
+  }
   return std::nullopt;
 }
 
@@ -172,6 +178,8 @@ core::Result<FractalModel> GenerateFractal(const FractalParams& params) {
   shape_options.max_raises = params.max_alpha_raises;
   shape_options.min_piece_volume_fraction = params.min_piece_volume_fraction;
   const double target_m = params.fit_fraction * params.gripper_opening_m;
+  // Capped so that a large alpha (a near-convex hull) still keeps the outline to ~1/40 of the box.
+  const double merge_cell = std::min(params.merge_fraction * params.alpha, kMaxMergeCell);
 
   FractalRejections rejections;
   std::vector<Point3> points;
@@ -202,7 +210,8 @@ core::Result<FractalModel> GenerateFractal(const FractalParams& params) {
       continue;
     }
     Normalize(points, normalization);
-    auto shape = ReconstructAlphaShape(points, shape_options);
+    const std::vector<Point3> merged = MergeGridNeighbours(points, merge_cell);
+    auto shape = ReconstructAlphaShape(merged, shape_options);
     if (!shape.ok()) {
       ++rejections.no_solid;
       continue;
@@ -224,6 +233,8 @@ core::Result<FractalModel> GenerateFractal(const FractalParams& params) {
     model.attempts = attempt;
     model.rejections = rejections;
     model.num_points = params.num_points;
+    model.points_triangulated = static_cast<int>(merged.size());
+    model.merge_cell = merge_cell;
     model.variances = variances;
     model.alpha_requested = s.alpha_requested;
     model.alpha_used = s.alpha_used;

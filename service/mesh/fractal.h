@@ -26,6 +26,11 @@ struct FractalParams {
   int max_attempts = 100000;        ///< draws before giving up; 1..10,000,000
   double min_piece_volume_fraction = 0.5;  ///< see AlphaShapeOptions; [0, 1]
   int max_alpha_raises = 24;               ///< see AlphaShapeOptions; 0..64
+  /// Before triangulating, chaos-game points in the same grid cell of side
+  /// min(merge_fraction * alpha, 0.05) (on the normalised cloud) are merged into the first of them
+  /// (MergeGridNeighbours): the clustered clouds have far more points than the alpha shape can
+  /// resolve, and the triangulation dominates the time. 0 = off; [0, 0.25].
+  double merge_fraction = 0.05;
 };
 
 /// Why draws were rejected before one was accepted.
@@ -45,6 +50,8 @@ struct FractalModel {
   int attempts = 0;  ///< draws until accepted (this one included)
   FractalRejections rejections;
   int num_points = 0;                 ///< points in the cloud
+  int points_triangulated = 0;        ///< of those, left after merging (see merge_fraction)
+  double merge_cell = 0.0;            ///< merge grid cell side on the normalised cloud (0 = off)
   std::array<double, 3> variances{};  ///< per-axis variance of the normalised cloud
   double alpha_requested = 0.0;       ///< on the normalised cloud (longest side spans [-1, 1])
   double alpha_used = 0.0;            ///< alpha_requested * 1.5^alpha_raises

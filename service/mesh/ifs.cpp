@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -157,6 +158,48 @@ std::array<double, 3> AxisVariances(const std::vector<Point3>& points,
   }
   for (double& v : var) v /= count;
   return var;
+}
+
+std::vector<Point3> MergeGridNeighbours(const std::vector<Point3>& points, double cell) {
+  if (!(cell > 0.0) || points.empty()) return points;
+  Point3 lo = points.front(), hi = points.front();
+  for (const Point3& p : points) {
+    for (int k = 0; k < 3; ++k) {
+      if (!std::isfinite(p[k])) {
+        throw std::invalid_argument("MergeGridNeighbours: non-finite coordinate");
+      }
+      lo[k] = std::min(lo[k], p[k]);
+      hi[k] = std::max(hi[k], p[k]);
+    }
+  }
+  constexpr double kMaxCellsPerAxis = 0x1.0p21;
+  std::array<double, 3> first_cell{};
+  for (int k = 0; k < 3; ++k) {
+    first_cell[k] = std::floor(lo[k] / cell);
+    if (!(std::floor(hi[k] / cell) - first_cell[k] < kMaxCellsPerAxis)) return points;
+  }
+  // Open addressing on the packed cell key (21 bits per axis): one probe sequence per point,
+  // first come first kept, so the result follows the input order.
+  int bits = 4;
+  while ((std::size_t{1} << bits) < 2 * points.size()) ++bits;
+  const std::size_t capacity = std::size_t{1} << bits;
+  constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::vector<std::uint64_t> table(capacity, kEmpty);
+  std::vector<Point3> kept;
+  kept.reserve(points.size());
+  for (const Point3& p : points) {
+    std::uint64_t key = 0;
+    for (int k = 0; k < 3; ++k) {
+      const auto index = static_cast<std::uint64_t>(std::floor(p[k] / cell) - first_cell[k]);
+      key |= index << (21 * k);
+    }
+    auto slot = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> (64 - bits));
+    while (table[slot] != kEmpty && table[slot] != key) slot = (slot + 1) & (capacity - 1);
+    if (table[slot] == key) continue;
+    table[slot] = key;
+    kept.push_back(p);
+  }
+  return kept;
 }
 
 }  // namespace softgrasp::mesh

@@ -78,6 +78,16 @@ CloudNormalization ComputeNormalization(const std::vector<Point3>& points);
 /// Applies `n` in place.
 void Normalize(std::vector<Point3>& points, const CloudNormalization& n);
 
+/// Merges points that fall into the same cell of an axis-aligned grid with cell side `cell`
+/// (cells [k * cell, (k + 1) * cell) per axis): keeps the first point of each cell, in input order,
+/// so the result is a subsequence of `points` (exact copies) and every dropped point lies within
+/// cell * sqrt(3) of a kept one. The chaos game puts most of its points in a few dense clusters,
+/// and at the alpha-shape scale (cell << alpha) the extra points only cost triangulation time.
+/// Returns the points unchanged when cell <= 0, or when the grid would need more than 2^21 cells
+/// along an axis (cell too small to merge anything useful; keeps the keys in 64 bits).
+/// @pre coordinates are finite.  @throws std::invalid_argument otherwise.
+std::vector<Point3> MergeGridNeighbours(const std::vector<Point3>& points, double cell);
+
 /// Per-axis population variance of `points` after normalisation `n` (thesis eq. 4.5 uses the
 /// minimum of the three).
 /// @pre points is not empty.  @throws std::invalid_argument otherwise.

@@ -1,7 +1,9 @@
 // Seconds per ACCEPTED fractal model, rejected draws included, per thesis alpha, 10,000 points,
 // one thread. One iteration = one model from a new seed (0, 1, 2, ...), so every run measures
 // the same models. Counters: median / p90 / mean CPU seconds per model, draws per model, share
-// of models whose alpha was raised. See docs/fractals.md for the figures and the command.
+// of models whose alpha was raised, points left for the triangulation after merging, and draws
+// rejected after their triangulation (the expensive rejections). See docs/fractals.md for the
+// figures and the command.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -32,14 +34,16 @@ double Quantile(std::vector<double> v, double q) {
 
 void BM_FractalModel(benchmark::State& state) {
   const double alpha = static_cast<double>(state.range(0)) / 100.0;
+  const double merge_fraction = static_cast<double>(state.range(1)) / 1000.0;
   std::uint64_t seed = 0;
   std::vector<double> cpu_seconds;
-  double draws = 0.0, raised = 0.0;
+  double draws = 0.0, raised = 0.0, triangulated = 0.0, late_rejections = 0.0;
   for (auto _ : state) {
     mesh::FractalParams params;
     params.seed = seed++;
     params.alpha = alpha;
     params.num_points = 10000;
+    params.merge_fraction = merge_fraction;
     const double start = ThreadCpuSeconds();
     auto model = mesh::GenerateFractal(params);
     cpu_seconds.push_back(ThreadCpuSeconds() - start);
@@ -48,6 +52,9 @@ void BM_FractalModel(benchmark::State& state) {
       break;
     }
     draws += model.value().attempts;
+    triangulated += model.value().points_triangulated;
+    // Draws rejected after their triangulation: the expensive ones.
+    late_rejections += model.value().rejections.no_solid + model.value().rejections.float_collision;
     raised += model.value().alpha_raised ? 1.0 : 0.0;
     benchmark::DoNotOptimize(model.value().mesh.faces.data());
   }
@@ -59,9 +66,18 @@ void BM_FractalModel(benchmark::State& state) {
   state.counters["mean_s"] = total / n;
   state.counters["draws_per_model"] = draws / n;
   state.counters["raised_share"] = raised / n;
+  state.counters["points_triangulated"] = triangulated / n;
+  state.counters["late_rejections"] = late_rejections / n;
 }
-// 60 models per alpha (seeds 0..59): alpha = range / 100.
-BENCHMARK(BM_FractalModel)->Arg(6)->Arg(30)->Arg(70)->Iterations(60)->Unit(benchmark::kMillisecond);
+// 60 models per alpha (seeds 0..59): args (alpha * 100, merge_fraction * 1000). The default
+// merge_fraction (0.05) per thesis alpha, then alpha 0.3 without merging as the in-run baseline.
+BENCHMARK(BM_FractalModel)
+    ->Args({6, 50})
+    ->Args({30, 50})
+    ->Args({70, 50})
+    ->Args({30, 0})
+    ->Iterations(60)
+    ->Unit(benchmark::kMillisecond);
 
 // Yardstick for the machine: the Delaunay triangulation (plus alpha classification) of 10,000
 // uniform random points, the floor under every model above.

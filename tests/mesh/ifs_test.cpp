@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <random>
 #include <stdexcept>
+#include <vector>
 
 namespace softgrasp::mesh {
 namespace {
@@ -126,6 +128,45 @@ TEST(IfsTest, ChaosGameStopsWhenItDiverges) {
   const std::size_t before = points.size();
   RunChaosGame(ifs, rng, 0, 10, 1e6, game, points);  // a diverged game stays stopped
   EXPECT_EQ(points.size(), before);
+}
+
+TEST(IfsTest, MergeGridNeighboursKeepsTheFirstPointPerCell) {
+  // Cells of side 0.5 anchored at 0: [0, 0.5), [0.5, 1), [-0.5, 0), ...
+  const std::vector<Point3> points = {{0.1, 0.1, 0.1},  {0.4, 0.2, 0.3},  {0.5, 0.1, 0.1},
+                                      {-0.1, 0.1, 0.1}, {0.49, 0.0, 0.0}, {0.6, 0.3, 0.1},
+                                      {0.1, 0.1, 0.1}};
+  const std::vector<Point3> expected = {points[0], points[2], points[3]};
+  EXPECT_EQ(MergeGridNeighbours(points, 0.5), expected);
+  EXPECT_EQ(MergeGridNeighbours(points, 0.0), points);   // off
+  EXPECT_EQ(MergeGridNeighbours(points, -1.0), points);  // off
+  EXPECT_EQ(MergeGridNeighbours(points, 1e-9), points);  // > 2^21 cells per axis: unchanged
+  EXPECT_TRUE(MergeGridNeighbours({}, 0.5).empty());
+  EXPECT_THROW(MergeGridNeighbours({{0, 0, 0}, {NAN, 0, 0}}, 0.5), std::invalid_argument);
+  EXPECT_THROW(MergeGridNeighbours({{0, 0, 0}, {0, INFINITY, 0}}, 0.5), std::invalid_argument);
+}
+
+TEST(IfsTest, MergeGridNeighboursMatchesAPlainCellMap) {
+  std::mt19937_64 rng(11);
+  ChaosGame game;
+  std::vector<Point3> points;
+  RunChaosGame(Sierpinski(), rng, 50, 20000, 1e6, game, points);
+  Normalize(points, ComputeNormalization(points));
+  for (const double cell : {0.003, 0.015, 0.035, 0.3}) {
+    // Reference: a std::map from integer cell to the first point that landed there.
+    std::map<std::array<long long, 3>, std::size_t> first;
+    std::vector<Point3> expected;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      std::array<long long, 3> key{};
+      for (std::size_t k = 0; k < 3; ++k) {
+        key[k] = static_cast<long long>(std::floor(points[i][k] / cell));
+      }
+      if (first.emplace(key, i).second) expected.push_back(points[i]);
+    }
+    const std::vector<Point3> merged = MergeGridNeighbours(points, cell);
+    EXPECT_EQ(merged, expected) << cell;
+    // The Sierpinski tetrahedron has dimension 2: points per cell grow as the cell grows.
+    EXPECT_LT(merged.size(), points.size()) << cell;
+  }
 }
 
 TEST(IfsTest, NormalizationPutsTheLongestSideOnMinusOneToOne) {
