@@ -63,8 +63,22 @@ struct GraspExecution {
 };
 
 /// Evaluates `grasp` in `scene` (raycaster built from the same scene). Errors: kInvalidArgument
-/// for non-finite numbers, an opening outside (0, stroke], or gripper sizes <= 0.
+/// for non-finite numbers, an opening outside (0, stroke], or gripper sizes <= 0 (and the other
+/// limits listed in docs/sim-grasp-execution.md: sizes <= 1 m, |coordinates| <= 1 km, force > 0,
+/// friction >= 0).
 core::Result<GraspExecution> ExecuteGrasp(const SimScene& scene, const SceneRaycaster& raycaster,
                                           const SimGrasp& grasp, const SimGripper& gripper);
+
+/// Builds a raycaster for `*scene`, executes `grasp`, and on success removes the held object from
+/// the scene (a picked object leaves, so a bin can be cleared grasp by grasp). The scene is left
+/// untouched on any other outcome or error. Errors: those of ExecuteGrasp and
+/// SceneRaycaster::Build, and kInvalidArgument for a null scene.
+core::Result<GraspExecution> ExecuteAndRemove(SimScene* scene, const SimGrasp& grasp,
+                                              const SimGripper& gripper);
+
+/// The Hooke-law spring rate of a finger contact on a surface of stiffness score `stiffness`
+/// (clamped to [0.1, 1]), in N/mm: log-linear from 0.2 N/mm at 0.1 (sponge) to 1000 N/mm at 1.0
+/// (rigid). See docs/sim-grasp-execution.md for a table.
+double ContactSpringRateNPerMm(float stiffness);
 
 }  // namespace softgrasp::sim
