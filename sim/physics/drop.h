@@ -26,13 +26,18 @@ struct DropOptions {
 
 /// What happened during a drop.
 struct DropReport {
-  int steps = 0;                       ///< simulation steps run
-  bool settled = false;                ///< every object came to rest before max_steps
-  std::vector<int> lost_instance_ids;  ///< objects that left the support (dropped from the scene)
+  int steps = 0;         ///< simulation steps run
+  bool settled = false;  ///< every object came to rest before max_steps
+  /// Objects that left the support, ascending: their centre fell below z = -0.05 m, or came to
+  /// rest outside the bin's inner walls / beyond the table top (ground_size_m square). They are
+  /// dropped from the scene.
+  std::vector<int> lost_instance_ids;
 };
 
 struct DropResult {
-  SimScene scene;  ///< objects that stayed on the support, instance ids 1..N in input order
+  /// Objects that stayed on the support, in input order; each keeps instance id = input index + 1
+  /// (lost objects are omitted, not renumbered), so ids may have gaps.
+  SimScene scene;
   DropReport report;
 };
 
