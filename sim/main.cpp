@@ -1,10 +1,13 @@
-// softgrasp-sim: the simulator's command line. Subcommands grow with the simulator issues;
-// today: `fractals` (batches of fractal training meshes).
+// softgrasp-sim: the simulator's command line: `generate` (datasets of simulated scenes) and
+// `fractals` (batches of fractal training meshes). Parsing only; the work is in the libraries.
 #include <cstdlib>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "sim/dataset/dataset.h"
+#include "sim/dataset/user_objects.h"
 #include "sim/fractal_batch.h"
 #include "sim/progress.h"
 
@@ -15,6 +18,18 @@ namespace mesh = softgrasp::mesh;
 namespace sim = softgrasp::sim;
 
 constexpr const char* kUsage =
+    "usage: softgrasp-sim generate --scenes N --seed S --out DIR [--objects MIN-MAX]\n"
+    "                              [--split train|val] [--support bin|table] [--noise on|off]\n"
+    "                              [--fractals P] [--fractal-stiffness K] [--shard-size N]\n"
+    "                              [--user-mesh PATH[:K|:STIFFNESS.json]]...\n"
+    "  Simulated scenes (catalogue objects dropped with Bullet, rendered with Embree): 16-bit\n"
+    "  depth (mm), 8-bit stiffness and deformability, 16-bit instance labels and one JSON\n"
+    "  manifest per scene, in shards, plus index.json (docs/simulator.md). Defaults: objects\n"
+    "  3-8, split train, support bin, noise on, fractals 0 (probability that an object is a\n"
+    "  fractal mesh), fractal stiffness drawn per object unless K (0.1-1) is given. Each\n"
+    "  --user-mesh (OBJ/PLY/STL in metres; constant stiffness K, default 0.5, or a JSON file\n"
+    "  {\"vertex_stiffness\": [...]}) joins the draw beside the catalogue categories.\n"
+    "\n"
     "usage: softgrasp-sim fractals --count N --seed S --out DIR [--alpha A] [--sigma S]\n"
     "                              [--points P] [--maps MIN-MAX] [--format F]\n"
     "  F: obj (default), ply, ply_ascii, ply_binary, stl, stl_ascii, stl_binary.\n"
@@ -32,8 +47,85 @@ bool ParseInt(const std::string& text, long long* out) {
   return !text.empty() && end == text.c_str() + text.size();
 }
 
+// "N" or "MIN-MAX".
+bool ParseRange(const std::string& value, long long* lo, long long* hi) {
+  const auto dash = value.find('-');
+  if (dash == std::string::npos) return ParseInt(value, lo) && (*hi = *lo, true);
+  return ParseInt(value.substr(0, dash), lo) && ParseInt(value.substr(dash + 1), hi);
+}
+
 // Returns an error message, or "" when `params` is filled.
-std::string ParseFractalsArgs(const std::vector<std::string>& args, sim::FractalBatchParams* params) {
+std::string ParseGenerateArgs(const std::vector<std::string>& args, sim::DatasetParams* params) {
+  bool have_out = false;
+  bool have_scenes = false;
+  params->spec.render.noise.enabled = true;
+  for (std::size_t i = 0; i < args.size(); i += 2) {
+    const std::string& flag = args[i];
+    if (i + 1 >= args.size()) return flag + " needs a value";
+    const std::string& value = args[i + 1];
+    long long n = 0;
+    long long m = 0;
+    double x = 0;
+    if (flag == "--scenes" && ParseInt(value, &n) && n >= 1 && n <= 10000000) {
+      params->scenes = static_cast<int>(n);
+      have_scenes = true;
+    } else if (flag == "--seed" && ParseInt(value, &n) && n >= 0) {
+      params->seed = static_cast<std::uint64_t>(n);
+    } else if (flag == "--objects") {
+      if (!ParseRange(value, &n, &m) || n < 1 || m > 8 || n > m)
+        return "--objects must be N or MIN-MAX within 1-8";
+      params->spec.min_objects = static_cast<int>(n);
+      params->spec.max_objects = static_cast<int>(m);
+    } else if (flag == "--split" && (value == "train" || value == "val")) {
+      params->spec.split = value == "train" ? sim::ShapeSplit::kTrain : sim::ShapeSplit::kVal;
+    } else if (flag == "--support" && (value == "bin" || value == "table")) {
+      params->spec.support.kind =
+          value == "bin" ? sim::Support::Kind::kBin : sim::Support::Kind::kTable;
+    } else if (flag == "--noise" && (value == "on" || value == "off")) {
+      params->spec.render.noise.enabled = value == "on";
+    } else if (flag == "--fractals" && ParseDouble(value, &x) && x >= 0.0 && x <= 1.0) {
+      params->spec.fractal_probability = x;
+    } else if (flag == "--fractal-stiffness" && ParseDouble(value, &x) && x >= 0.1 && x <= 1.0) {
+      params->spec.fractal_stiffness = static_cast<float>(x);
+    } else if (flag == "--user-mesh") {
+      auto user = sim::ParseUserObjectArg(value);
+      if (!user.ok()) return "--user-mesh " + value + ": " + user.error().message;
+      auto object = sim::LoadUserObject(user.value());
+      if (!object.ok()) return "--user-mesh " + value + ": " + object.error().message;
+      params->spec.user_objects.push_back(
+          std::make_shared<const sim::SimObject>(std::move(object).value()));
+    } else if (flag == "--shard-size" && ParseInt(value, &n) && n >= 1 && n <= 100000) {
+      params->shard_size = static_cast<int>(n);
+    } else if (flag == "--out") {
+      params->out_dir = value;
+      have_out = true;
+    } else {
+      return "bad argument " + flag + " " + value;
+    }
+  }
+  if (!have_scenes) return "--scenes is required";
+  return have_out ? "" : "--out is required";
+}
+
+int RunGenerate(const std::vector<std::string>& args) {
+  sim::DatasetParams params;
+  if (const std::string problem = ParseGenerateArgs(args, &params); !problem.empty()) {
+    std::cerr << "softgrasp-sim generate: " << problem << "\n" << kUsage;
+    return 2;
+  }
+  sim::ProgressBar bar("scenes", params.scenes);
+  auto index = sim::GenerateDataset(params, [&bar](int done) { bar.Update(done); });
+  if (!index.ok()) {
+    std::cerr << "softgrasp-sim generate: " << index.error().message << "\n";
+    return 1;
+  }
+  std::cout << index.value().string() << "\n";
+  return 0;
+}
+
+// Returns an error message, or "" when `params` is filled.
+std::string ParseFractalsArgs(const std::vector<std::string>& args,
+                              sim::FractalBatchParams* params) {
   bool have_out = false;
   for (std::size_t i = 0; i < args.size(); i += 2) {
     const std::string& flag = args[i];
@@ -53,11 +145,7 @@ std::string ParseFractalsArgs(const std::vector<std::string>& args, sim::Fractal
       params->model.num_points = static_cast<int>(n);
     } else if (flag == "--maps") {
       long long lo = 0, hi = 0;
-      const auto dash = value.find('-');
-      const bool ok = dash == std::string::npos
-                          ? ParseInt(value, &lo) && (hi = lo, true)
-                          : ParseInt(value.substr(0, dash), &lo) && ParseInt(value.substr(dash + 1), &hi);
-      if (!ok) return "--maps must be N or MIN-MAX";
+      if (!ParseRange(value, &lo, &hi)) return "--maps must be N or MIN-MAX";
       params->model.min_maps = static_cast<int>(lo);
       params->model.max_maps = static_cast<int>(hi);
     } else if (flag == "--format" && mesh::MeshFormatFromName(value)) {
@@ -96,6 +184,7 @@ int main(int argc, char** argv) {
     std::cout << kUsage;
     return args.empty() ? 2 : 0;
   }
+  if (args[0] == "generate") return RunGenerate({args.begin() + 1, args.end()});
   if (args[0] == "fractals") return RunFractals({args.begin() + 1, args.end()});
   std::cerr << "softgrasp-sim: unknown command '" << args[0] << "'\n" << kUsage;
   return 2;

@@ -51,7 +51,7 @@ struct PlacedObject {
 struct Support {
   enum class Kind { kTable, kBin };
   Kind kind = Kind::kBin;
-  double inner_size_x_m = 0.40;  ///< table top size, or the bin's inner floor size
+  double inner_size_x_m = 0.40;  ///< spawn area on a table, or the bin's inner floor size
   double inner_size_y_m = 0.30;
   double wall_height_m = 0.10;     ///< bin only: wall height above the floor
   double wall_thickness_m = 0.01;  ///< bin only

@@ -1,0 +1,62 @@
+#pragma once
+/// One simulated scene end to end: draw objects from the catalogue (and optionally fractal
+/// meshes), drop them with Bullet, render the views with Embree. Deterministic in
+/// (spec, scene_seed). Used by `softgrasp-sim generate` and by anything that needs a scene.
+
+#include <cstdint>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "service/core/status.h"
+#include "service/mesh/fractal.h"
+#include "sim/catalogue/catalogue.h"
+#include "sim/physics/drop.h"
+#include "sim/render/render.h"
+#include "sim/scene/scene.h"
+
+namespace softgrasp::sim {
+
+struct SceneSpec {
+  int min_objects = 3;  ///< objects per scene, drawn uniformly in [min, max]; 1..8
+  int max_objects = 8;
+  ShapeSplit split = ShapeSplit::kTrain;
+  Support support;
+  /// Categories to draw from (uniformly); empty = every catalogue category.
+  std::vector<std::string> categories;
+  /// User objects (LoadUserObject) join the draw: each is one more entry beside the categories.
+  std::vector<std::shared_ptr<const SimObject>> user_objects;
+  /// Probability that an object is a fractal mesh instead of a catalogue item; [0, 1].
+  double fractal_probability = 0.0;
+  /// Constant stiffness of a fractal object; unset = a level drawn per object from 0.1..1.0.
+  std::optional<float> fractal_stiffness;
+  double fractal_density_kg_m3 = 500.0;
+  mesh::FractalParams fractal;  ///< the seed is replaced per object
+  DropOptions drop;
+  RenderOptions render;  ///< render.noise.seed is replaced per scene
+};
+
+/// Checks ranges; the error names the field ("objects", "fractal_probability", ...).
+std::optional<core::Error> ValidateSceneSpec(const SceneSpec& spec);
+
+struct GeneratedScene {
+  std::uint64_t scene_seed = 0;
+  SimScene scene;  ///< objects at rest (lost objects removed)
+  DropReport drop;
+  RenderedViews views;
+};
+
+/// The seed of scene `index` in a dataset: SplitMix64 of (dataset seed, index, split), so train
+/// and val sets made with the same --seed share no scene.
+std::uint64_t SceneSeed(std::uint64_t dataset_seed, int index, ShapeSplit split);
+
+/// Builds, settles and renders one scene.
+core::Result<GeneratedScene> GenerateScene(const SceneSpec& spec, std::uint64_t scene_seed);
+
+/// The scene's manifest: seed, split, camera (intrinsics and world_from_camera), support,
+/// objects (category, shape parameters, mass, pose), noise model and the drop report.
+nlohmann::json SceneManifest(const SceneSpec& spec, const GeneratedScene& generated);
+
+}  // namespace softgrasp::sim
