@@ -4,12 +4,14 @@
 #include <exception>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "service/http/server.h"
 #include "service/rest/api.h"
 #include "service/rest/config.h"
+#include "service/robot/command_tracker.h"
 
 namespace {
 
@@ -31,6 +33,34 @@ std::string ExecutablePath(const char* argv0) {
   return error ? std::string(argv0) : self.string();
 }
 
+// The robot side of the service (docs/robot-api.md): a DDS participant on the configured domain and
+// the command tracker over the journal. Null when the robot endpoints are off, with the reason
+// printed; an error when they are on but cannot start (the service then does not start either).
+softgrasp::core::Result<std::shared_ptr<softgrasp::robot::CommandTracker>> StartRobot(
+    softgrasp::rest::RobotConfig& robot) {
+  using namespace softgrasp;
+  if (const std::string reason = rest::RobotDisabledReason(robot); !reason.empty()) {
+    std::cerr << "softgrasp-server: " << reason << "\n";
+    return std::shared_ptr<robot::CommandTracker>();
+  }
+  if (robot.journal_dir.empty()) robot.journal_dir = rest::DefaultJournalDir();
+  bridge::BridgeOptions options;
+  options.domain_id = robot.domain_id;
+  options.config = robot.dds_config;
+  auto bridge = bridge::ServiceBridge::Create(options);
+  if (!bridge) return bridge.error();
+  robot::TrackerOptions tracker_options;
+  tracker_options.journal_dir = robot.journal_dir;
+  tracker_options.command_timeout_s = robot.command_timeout_s;
+  auto tracker = robot::CommandTracker::Create(tracker_options, std::move(bridge).value());
+  if (!tracker) return tracker.error();
+  const robot::TrackerStats stats = tracker.value()->stats();
+  std::cerr << "softgrasp-server: robot endpoints on DDS domain " << robot.domain_id << ", journal "
+            << robot.journal_dir << " (" << stats.replayed_commands << " commands replayed, "
+            << stats.republished << " re-sent)\n";
+  return std::shared_ptr<robot::CommandTracker>(std::move(tracker).value());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -46,17 +76,24 @@ int main(int argc, char** argv) {
   }
   rest::ServiceConfig& config = command_line.value().config;
   if (config.web_root.empty()) config.web_root = rest::DefaultWebRoot(ExecutablePath(argv[0]));
+  if (config.robot.journal_dir.empty()) config.robot.journal_dir = rest::DefaultJournalDir();
   std::cerr << "config " << rest::ConfigToJson(config) << "\n";
-  if (std::error_code error;
-      !std::filesystem::is_regular_file(std::filesystem::path(config.web_root) / "index.html",
-                                        error)) {
+  if (std::error_code error; !std::filesystem::is_regular_file(
+          std::filesystem::path(config.web_root) / "index.html", error)) {
     std::cerr << "softgrasp-server: no web page in " << config.web_root
               << " (GET / answers 404): run scripts/build.sh or pass --web-root\n";
   }
 
+  // Before any thread starts (DDS and the tracker start threads), so they all inherit the mask.
   const sigset_t signals = BlockShutdownSignals();
+  auto robot = StartRobot(config.robot);
+  if (!robot) {
+    std::cerr << "softgrasp-server: the robot endpoints cannot start: " << robot.error().message
+              << (robot.error().field.empty() ? "" : " (" + robot.error().field + ")") << "\n";
+    return 1;
+  }
   try {
-    http::Router router = rest::BuildRouter(config);
+    http::Router router = rest::BuildRouter(config, robot.value());
     http::Server server(config.server,
                         [&router](http::Request& request) { return router.Dispatch(request); });
     server.Start();

@@ -16,6 +16,10 @@ enum class ErrorCode {
   kUnprocessable,         ///< well-formed but cannot be used, e.g. an all-missing depth image (422)
   kNotFound,              ///< (404)
   kInternal,              ///< a bug on our side (500)
+  kUnauthorized,          ///< no or malformed credentials (401)
+  kForbidden,             ///< credentials given but not accepted (403)
+  kConflict,              ///< clashes with existing state, e.g. an id reused for another body (409)
+  kUnavailable,           ///< a needed party is not there now (no robot alive); retry later (503)
 };
 
 /// Stable snake_case name of a code, used in JSON error bodies.
@@ -31,8 +35,8 @@ struct Error {
 template <class T>
 class Result {
  public:
-  Result(T value) : v_(std::move(value)) {}       // NOLINT(google-explicit-constructor)
-  Result(Error error) : v_(std::move(error)) {}   // NOLINT(google-explicit-constructor)
+  Result(T value) : v_(std::move(value)) {}      // NOLINT(google-explicit-constructor)
+  Result(Error error) : v_(std::move(error)) {}  // NOLINT(google-explicit-constructor)
 
   bool ok() const { return std::holds_alternative<T>(v_); }
   explicit operator bool() const { return ok(); }

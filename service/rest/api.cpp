@@ -3,7 +3,6 @@
 #include <array>
 #include <chrono>
 #include <memory>
-
 #include <nlohmann/json.hpp>
 
 #include "service/core/fge.h"
@@ -14,6 +13,7 @@
 #include "service/rest/build_info.h"
 #include "service/rest/fractal_request.h"
 #include "service/rest/grasp_request.h"
+#include "service/rest/robot_api.h"
 
 namespace softgrasp::rest {
 namespace {
@@ -46,7 +46,7 @@ json GraspToJson(const core::Grasp& g, int rank) {
 }
 
 json CameraToJson(const core::Camera& c) {
-  return {{"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx},
+  return {{"fx", c.fx}, {"fy", c.fy},       {"cx", c.cx},
           {"cy", c.cy}, {"width", c.width}, {"height", c.height}};
 }
 
@@ -59,7 +59,15 @@ json GripperToJson(const core::Gripper& g) {
 
 http::Response Healthz() { return http::Response::Json(200, R"({"status":"ok"})"); }
 
-http::Response Info(const ServiceConfig& config) {
+json RobotInfoJson(const ServiceConfig& config, bool running) {
+  std::string reason = RobotDisabledReason(config.robot);
+  if (reason.empty() && !running) reason = "the robot endpoints are not running in this process";
+  json robot = {{"enabled", reason.empty()}};
+  if (!reason.empty()) robot["reason"] = reason;
+  return robot;
+}
+
+http::Response Info(const ServiceConfig& config, bool robot_running) {
   const auto& limits = config.server.limits;
   json body = {
       {"name", "softgrasp"},
@@ -91,6 +99,7 @@ http::Response Info(const ServiceConfig& config) {
         {"num_height_steps", config.fge.num_height_steps},
         {"height_step_m", config.fge.height_step_m},
         {"png_unit_m", config.png_unit_m}}},
+      {"robot", RobotInfoJson(config, robot_running)},
   };
   return http::Response::Json(200, body.dump());
 }
@@ -154,11 +163,14 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config)
 
 const char* MeshContentType(mesh::MeshFormat format) {
   switch (format) {
-    case mesh::MeshFormat::kObj: return "model/obj";
+    case mesh::MeshFormat::kObj:
+      return "model/obj";
     case mesh::MeshFormat::kPlyAscii:
-    case mesh::MeshFormat::kPlyBinary: return "application/x-ply";
+    case mesh::MeshFormat::kPlyBinary:
+      return "application/x-ply";
     case mesh::MeshFormat::kStlAscii:
-    case mesh::MeshFormat::kStlBinary: return "model/stl";
+    case mesh::MeshFormat::kStlBinary:
+      return "model/stl";
   }
   return "application/octet-stream";
 }
@@ -209,8 +221,8 @@ http::Response Fractals(const http::Request& request, const ServiceConfig& confi
   if (in.stats_only) {
     return http::Response::Json(200, FractalStats(m, in, MillisecondsSince(start)).dump());
   }
-  http::Response file = http::Response::Bytes(200, MeshContentType(in.format),
-                                              mesh::WriteMesh(m.mesh, in.format));
+  http::Response file =
+      http::Response::Bytes(200, MeshContentType(in.format), mesh::WriteMesh(m.mesh, in.format));
   file.set_header("Content-Disposition", "attachment; filename=\"" + FractalFileName(in) + "\"");
   file.set_header("X-Fractal-Alpha-Used", json(m.alpha_used).dump());
   file.set_header("X-Fractal-Attempts", std::to_string(m.attempts));
@@ -239,12 +251,26 @@ http::Response WebPage(const http::StaticFiles& files, const http::Request& requ
 
 int HttpStatusFor(core::ErrorCode code) {
   switch (code) {
-    case core::ErrorCode::kInvalidArgument: return 400;
-    case core::ErrorCode::kUnsupportedMediaType: return 415;
-    case core::ErrorCode::kPayloadTooLarge: return 413;
-    case core::ErrorCode::kUnprocessable: return 422;
-    case core::ErrorCode::kNotFound: return 404;
-    case core::ErrorCode::kInternal: return 500;
+    case core::ErrorCode::kInvalidArgument:
+      return 400;
+    case core::ErrorCode::kUnsupportedMediaType:
+      return 415;
+    case core::ErrorCode::kPayloadTooLarge:
+      return 413;
+    case core::ErrorCode::kUnprocessable:
+      return 422;
+    case core::ErrorCode::kNotFound:
+      return 404;
+    case core::ErrorCode::kInternal:
+      return 500;
+    case core::ErrorCode::kUnauthorized:
+      return 401;
+    case core::ErrorCode::kForbidden:
+      return 403;
+    case core::ErrorCode::kConflict:
+      return 409;
+    case core::ErrorCode::kUnavailable:
+      return 503;
   }
   return 500;
 }
@@ -254,22 +280,26 @@ http::Response ErrorToResponse(const core::Error& error) {
                              error.message, error.field);
 }
 
-http::Router BuildRouter(const ServiceConfig& config) {
+http::Router BuildRouter(const ServiceConfig& config) { return BuildRouter(config, nullptr); }
+
+http::Router BuildRouter(const ServiceConfig& config,
+                         std::shared_ptr<robot::CommandTracker> robot) {
   http::Router router;
+  const bool robot_running = robot != nullptr;
   router.Add("GET", "/healthz", [](const http::Request&) { return Healthz(); });
-  router.Add("GET", "/v1/info", [config](const http::Request&) { return Info(config); });
-  router.Add("POST", "/v1/grasps",
-             [config](const http::Request& r) { return Grasps(r, config); });
+  router.Add("GET", "/v1/info",
+             [config, robot_running](const http::Request&) { return Info(config, robot_running); });
+  router.Add("POST", "/v1/grasps", [config](const http::Request& r) { return Grasps(r, config); });
   router.Add("POST", "/v1/fractals",
              [config](const http::Request& r) { return Fractals(r, config); });
 
   // The browser page (docs/web.md): index.html at "/", content-hashed bundles under /assets/.
-  auto files =
-      std::make_shared<const http::StaticFiles>(http::StaticFilesOptions{config.web_root});
+  auto files = std::make_shared<const http::StaticFiles>(http::StaticFilesOptions{config.web_root});
   router.Add("GET", "/", [files](const http::Request& r) { return WebPage(*files, r); });
   router.Add("GET", "/assets/{file}", [files](const http::Request& r) {
     return files->Serve(r, {"assets", r.path_params.at("file")});
   });
+  AddRobotRoutes(router, config, std::move(robot));
   return router;
 }
 

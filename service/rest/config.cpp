@@ -7,9 +7,8 @@
 #include <functional>
 #include <limits>
 #include <map>
-#include <sstream>
-
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 namespace softgrasp::rest {
 namespace {
@@ -43,6 +42,74 @@ Setter String(std::string* target) {
   return [=](const json& v) -> std::string {
     if (!v.is_string()) return "must be a string";
     *target = v.get<std::string>();
+    return {};
+  };
+}
+
+core::Result<long long> ParseInteger(const char* text, const std::string& name);
+
+Setter Bool(bool* target) {
+  return [=](const json& v) -> std::string {
+    if (!v.is_boolean()) return "must be true or false";
+    *target = v.get<bool>();
+    return {};
+  };
+}
+
+// Says what is wrong with a token without ever echoing it.
+std::string TokenProblem(const std::string& token) {
+  if (token.size() < 16 || token.size() > 512) return "must be 16 to 512 characters long";
+  for (const char c : token) {
+    if (c <= 0x20 || c >= 0x7f || c == ',') {
+      return "must be visible ASCII characters without commas or spaces";
+    }
+  }
+  return {};
+}
+
+Setter Tokens(std::vector<std::string>* target) {
+  return [=](const json& v) -> std::string {
+    if (!v.is_array()) return "must be an array of strings";
+    std::vector<std::string> tokens;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      if (!v[i].is_string()) return "[" + std::to_string(i) + "] must be a string";
+      if (std::string p = TokenProblem(v[i].get<std::string>()); !p.empty()) {
+        return "[" + std::to_string(i) + "] " + p;
+      }
+      tokens.push_back(v[i].get<std::string>());
+    }
+    *target = std::move(tokens);
+    return {};
+  };
+}
+
+Setter WorkspaceBox(bridge::Workspace* target) {
+  return [=](const json& v) -> std::string {
+    if (!v.is_object()) return "must be an object {frame_id, min_m, max_m}";
+    bridge::Workspace w = *target;
+    for (const auto& [key, value] : v.items()) {
+      if (key == "frame_id") {
+        if (!value.is_string() || value.get<std::string>().empty()) {
+          return ".frame_id must be a non-empty string";
+        }
+        w.frame_id = value.get<std::string>();
+      } else if (key == "min_m" || key == "max_m") {
+        if (!value.is_array() || value.size() != 3) return "." + key + " must be 3 numbers";
+        auto& corner = key == "min_m" ? w.min_m : w.max_m;
+        for (std::size_t i = 0; i < 3; ++i) {
+          if (!value[i].is_number() || !std::isfinite(value[i].get<double>())) {
+            return "." + key + " must be 3 finite numbers";
+          }
+          corner[i] = value[i].get<double>();
+        }
+      } else {
+        return "has an unknown key '" + key + "'";
+      }
+    }
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (!(w.min_m[i] < w.max_m[i])) return "min_m must be below max_m on every axis";
+    }
+    *target = w;
     return {};
   };
 }
@@ -95,12 +162,101 @@ std::map<std::string, std::map<std::string, Setter>> Sections(ServiceConfig& c) 
        {{"max_points", Number(&c.max_fractal_points, 100, 1e6)},
         {"max_attempts", Number(&c.max_fractal_attempts, 1, 1e7)}}},
       {"web", {{"root", String(&c.web_root)}}},
+      {"robot",
+       {{"enabled", Bool(&c.robot.enabled)},
+        {"domain_id", Number(&c.robot.domain_id, 0, 232)},
+        {"dds_config", String(&c.robot.dds_config)},
+        {"tokens", Tokens(&c.robot.tokens)},
+        {"workspace", WorkspaceBox(&c.robot.workspace)},
+        {"command_timeout_s", Number(&c.robot.command_timeout_s, 0.1, 86400)},
+        {"journal_dir", String(&c.robot.journal_dir)},
+        {"default_force_n", Number(&c.robot.default_force_n, 0.01, 1000)}}},
   };
+}
+
+core::Result<bool> ParseBool(const char* text, const std::string& name) {
+  const std::string t(text);
+  if (t == "1" || t == "true" || t == "yes" || t == "on") return true;
+  if (t == "0" || t == "false" || t == "no" || t == "off") return false;
+  return MakeError(ErrorCode::kInvalidArgument, name + " must be true or false, got '" + t + "'",
+                   name);
+}
+
+core::Result<double> ParseDouble(const char* text, const std::string& name) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text, &end);
+  if (errno != 0 || end == text || *end != '\0' || !std::isfinite(v)) {
+    return MakeError(ErrorCode::kInvalidArgument, name + " must be a number, got '" + text + "'",
+                     name);
+  }
+  return v;
+}
+
+// SOFTGRASP_ROBOT_TOKENS="t1,t2": empty items are ignored; a bad token is named by position only.
+core::Result<std::vector<std::string>> ParseTokenList(const std::string& text) {
+  std::vector<std::string> tokens;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t end = text.find(',', start);
+    if (end == std::string::npos) end = text.size();
+    std::string token = text.substr(start, end - start);
+    while (!token.empty() && (token.back() == ' ' || token.back() == '\t')) token.pop_back();
+    while (!token.empty() && (token.front() == ' ' || token.front() == '\t')) token.erase(0, 1);
+    if (!token.empty()) {
+      if (std::string p = TokenProblem(token); !p.empty()) {
+        return MakeError(
+            ErrorCode::kInvalidArgument,
+            "SOFTGRASP_ROBOT_TOKENS item " + std::to_string(tokens.size() + 1) + " " + p,
+            "SOFTGRASP_ROBOT_TOKENS");
+      }
+      tokens.push_back(std::move(token));
+    }
+    start = end + 1;
+  }
+  return tokens;
+}
+
+core::Result<ServiceConfig> ApplyRobotEnvironment(ServiceConfig config) {
+  RobotConfig& robot = config.robot;
+  if (const char* v = std::getenv("SOFTGRASP_ROBOT_ENABLED")) {
+    auto b = ParseBool(v, "SOFTGRASP_ROBOT_ENABLED");
+    if (!b) return b.error();
+    robot.enabled = b.value();
+  }
+  if (const char* v = std::getenv("SOFTGRASP_ROBOT_DOMAIN_ID")) {
+    auto id = ParseInteger(v, "SOFTGRASP_ROBOT_DOMAIN_ID");
+    if (!id) return id.error();
+    if (id.value() < 0 || id.value() > 232) {
+      return MakeError(ErrorCode::kInvalidArgument, "SOFTGRASP_ROBOT_DOMAIN_ID must be in [0, 232]",
+                       "SOFTGRASP_ROBOT_DOMAIN_ID");
+    }
+    robot.domain_id = static_cast<int>(id.value());
+  }
+  if (const char* v = std::getenv("SOFTGRASP_ROBOT_DDS_CONFIG")) robot.dds_config = v;
+  if (const char* v = std::getenv("SOFTGRASP_ROBOT_JOURNAL_DIR")) robot.journal_dir = v;
+  if (const char* v = std::getenv("SOFTGRASP_ROBOT_TOKENS")) {
+    auto tokens = ParseTokenList(v);
+    if (!tokens) return tokens.error();
+    robot.tokens = std::move(tokens).value();
+  }
+  if (const char* v = std::getenv("SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S")) {
+    auto t = ParseDouble(v, "SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S");
+    if (!t) return t.error();
+    if (t.value() < 0.1 || t.value() > 86400) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S must be in [0.1, 86400]",
+                       "SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S");
+    }
+    robot.command_timeout_s = t.value();
+  }
+  return config;
 }
 
 core::Result<std::string> ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) return MakeError(ErrorCode::kInvalidArgument, "cannot read config file " + path, "config");
+  if (!in)
+    return MakeError(ErrorCode::kInvalidArgument, "cannot read config file " + path, "config");
   std::ostringstream os;
   os << in.rdbuf();
   return os.str();
@@ -160,8 +316,8 @@ core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config) {
   const IntVar vars[] = {
       {"SOFTGRASP_PORT", [&](long long v) { config.server.port = static_cast<uint16_t>(v); }, 0,
        65535},
-      {"SOFTGRASP_WORKERS", [&](long long v) { config.server.num_workers = static_cast<int>(v); }, 1,
-       256},
+      {"SOFTGRASP_WORKERS", [&](long long v) { config.server.num_workers = static_cast<int>(v); },
+       1, 256},
       {"SOFTGRASP_MAX_BODY_BYTES",
        [&](long long v) { config.server.limits.max_body_bytes = static_cast<std::size_t>(v); }, 1,
        static_cast<long long>(kMaxBytes)},
@@ -181,7 +337,7 @@ core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config) {
     }
     var.set(value.value());
   }
-  return config;
+  return ApplyRobotEnvironment(std::move(config));
 }
 
 core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args) {
@@ -214,7 +370,8 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
   auto env = ApplyEnvironment(config);
   if (!env.ok()) return env.error();
   config = env.value();
-  if (const auto host = flags.find("--host"); host != flags.end()) config.server.host = host->second;
+  if (const auto host = flags.find("--host"); host != flags.end())
+    config.server.host = host->second;
   if (const auto web = flags.find("--web-root"); web != flags.end()) config.web_root = web->second;
   for (const char* name : {"--port", "--workers"}) {
     const auto flag = flags.find(name);
@@ -223,10 +380,12 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
     if (!value.ok()) return value.error();
     const long long v = value.value();
     if (std::string(name) == "--port") {
-      if (v < 0 || v > 65535) return MakeError(ErrorCode::kInvalidArgument, "--port must be in [0, 65535]", name);
+      if (v < 0 || v > 65535)
+        return MakeError(ErrorCode::kInvalidArgument, "--port must be in [0, 65535]", name);
       config.server.port = static_cast<uint16_t>(v);
     } else {
-      if (v < 1 || v > 256) return MakeError(ErrorCode::kInvalidArgument, "--workers must be in [1, 256]", name);
+      if (v < 1 || v > 256)
+        return MakeError(ErrorCode::kInvalidArgument, "--workers must be in [1, 256]", name);
       config.server.num_workers = static_cast<int>(v);
     }
   }
@@ -241,7 +400,10 @@ std::string UsageText() {
          "  'listening on http://HOST:PORT'. --web-root: the built web page served at GET /\n"
          "  (default: ../web next to the executable's folder). Environment: SOFTGRASP_HOST,\n"
          "  SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,\n"
-         "  SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT.\n"
+         "  SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT; robot endpoints:\n"
+         "  SOFTGRASP_ROBOT_ENABLED, SOFTGRASP_ROBOT_TOKENS, SOFTGRASP_ROBOT_DOMAIN_ID,\n"
+         "  SOFTGRASP_ROBOT_DDS_CONFIG, SOFTGRASP_ROBOT_JOURNAL_DIR,\n"
+         "  SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S (docs/robot-api.md).\n"
          "  Precedence: flags > environment > config file > defaults (docs/configuration.md).\n";
 }
 
@@ -263,7 +425,11 @@ std::string ConfigToJson(const ServiceConfig& c) {
         {"max_header_bytes", s.limits.max_header_bytes},
         {"max_uri_bytes", s.limits.max_uri_bytes}}},
       {"camera",
-       {{"fx", cam.fx}, {"fy", cam.fy}, {"cx", cam.cx}, {"cy", cam.cy}, {"width", cam.width},
+       {{"fx", cam.fx},
+        {"fy", cam.fy},
+        {"cx", cam.cx},
+        {"cy", cam.cy},
+        {"width", cam.width},
         {"height", cam.height}}},
       {"gripper",
        {{"opening_stroke_mm", g.opening_stroke_mm},
@@ -281,10 +447,46 @@ std::string ConfigToJson(const ServiceConfig& c) {
         {"top_k", f.top_k},
         {"nms_radius_px", f.nms_radius_px}}},
       {"depth", {{"png_unit_m", c.png_unit_m}, {"max_image_pixels", c.max_image_pixels}}},
-      {"fractals", {{"max_points", c.max_fractal_points}, {"max_attempts", c.max_fractal_attempts}}},
+      {"fractals",
+       {{"max_points", c.max_fractal_points}, {"max_attempts", c.max_fractal_attempts}}},
       {"web", {{"root", c.web_root}}},
+      {"robot",
+       {{"enabled", c.robot.enabled},
+        {"domain_id", c.robot.domain_id},
+        {"dds_config", c.robot.dds_config},
+        // Secrets: only how many there are.
+        {"tokens", json::array()},
+        {"tokens_configured", c.robot.tokens.size()},
+        {"workspace",
+         {{"frame_id", c.robot.workspace.frame_id},
+          {"min_m", c.robot.workspace.min_m},
+          {"max_m", c.robot.workspace.max_m}}},
+        {"command_timeout_s", c.robot.command_timeout_s},
+        {"journal_dir", c.robot.journal_dir},
+        {"default_force_n", c.robot.default_force_n}}},
   };
+  for (std::size_t i = 0; i < c.robot.tokens.size(); ++i) j["robot"]["tokens"].push_back("***");
   return j.dump();
+}
+
+std::string RobotDisabledReason(const RobotConfig& robot) {
+  if (!robot.enabled) return "the robot endpoints are disabled in this service (robot.enabled)";
+  if (robot.tokens.empty()) {
+    return "the robot endpoints are disabled: no tokens are configured (robot.tokens or "
+           "SOFTGRASP_ROBOT_TOKENS)";
+  }
+  return {};
+}
+
+std::string DefaultJournalDir() {
+  namespace fs = std::filesystem;
+  if (const char* state = std::getenv("XDG_STATE_HOME"); state != nullptr && *state != '\0') {
+    return (fs::path(state) / "softgrasp" / "robot-journal").string();
+  }
+  if (const char* home = std::getenv("HOME"); home != nullptr && *home != '\0') {
+    return (fs::path(home) / ".local" / "state" / "softgrasp" / "robot-journal").string();
+  }
+  return {};
 }
 
 std::string DefaultWebRoot(const std::string& executable_path) {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "service/bridge/messages.h"
 #include "service/core/depth.h"
 #include "service/core/fge.h"
 #include "service/core/grasp.h"
@@ -14,26 +15,53 @@
 
 namespace softgrasp::rest {
 
+/// The robot endpoints (docs/robot-api.md): forwarding grasps to robots over DDS.
+struct RobotConfig {
+  /// Off: the robot routes answer 503 and no DDS participant is created. On but with no tokens:
+  /// the same (a robot must never move for an anonymous request).
+  bool enabled = true;
+  int domain_id = 0;       ///< DDS domain (= ROS_DOMAIN_ID), 0..232
+  std::string dds_config;  ///< Cyclone XML or file URIs; "" = CYCLONEDDS_URI, else defaults
+  /// Bearer tokens accepted on the robot routes (16..512 visible ASCII characters, no commas).
+  /// Secret: masked in ConfigToJson, never logged.
+  std::vector<std::string> tokens;
+  /// Poses outside this box (in its frame) are refused with 422 before anything is sent.
+  bridge::Workspace workspace{"camera", {-0.5, -0.5, 0.1}, {0.5, 0.5, 1.5}};
+  double command_timeout_s = 60.0;  ///< no result this long after acceptance: timed_out
+  /// Folder of the command journal; "" = DefaultJournalDir().
+  std::string journal_dir;
+  double default_force_n = 10.0;  ///< closing force when a request gives none
+};
+
 struct ServiceConfig {
-  http::ServerOptions server;            ///< host, port, workers, limits, timeouts
-  core::Camera default_camera;           ///< used when a request gives no intrinsics
+  http::ServerOptions server;   ///< host, port, workers, limits, timeouts
+  core::Camera default_camera;  ///< used when a request gives no intrinsics
   core::Gripper default_gripper;
   core::FgeParams fge;
-  double png_unit_m = 0.001;             ///< metres per 16-bit PNG count unless the request says
+  double png_unit_m = 0.001;  ///< metres per 16-bit PNG count unless the request says
   long long max_image_pixels = 4096LL * 4096;  ///< decompression-bomb guard, before decoding
-  int max_fractal_points = 200'000;      ///< POST /v1/fractals "points" cap (400 above it)
-  int max_fractal_attempts = 20'000;     ///< IFS draws before a fractal request gives up (422)
+  int max_fractal_points = 200'000;            ///< POST /v1/fractals "points" cap (400 above it)
+  int max_fractal_attempts = 20'000;  ///< IFS draws before a fractal request gives up (422)
   /// Folder of the built web page served at GET / and /assets/ (scripts/build.sh writes it to
   /// <build>/web). Empty: softgrasp-server uses DefaultWebRoot() next to its executable.
   std::string web_root;
+  RobotConfig robot;
 };
+
+/// "" when the robot endpoints can serve, else why not (the 503 message and /v1/info's reason).
+std::string RobotDisabledReason(const RobotConfig& robot);
+
+/// ${XDG_STATE_HOME:-$HOME/.local/state}/softgrasp/robot-journal, or "" when neither is set.
+std::string DefaultJournalDir();
 
 /// Applies a JSON config document (see docs/configuration.md) onto `config`.
 /// kInvalidArgument naming the key when a value has the wrong type or range.
 core::Result<ServiceConfig> ApplyConfigJson(ServiceConfig config, const std::string& json_text);
 
 /// Applies SOFTGRASP_HOST, SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,
-/// SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT from the environment.
+/// SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT, and the robot settings SOFTGRASP_ROBOT_ENABLED,
+/// SOFTGRASP_ROBOT_DOMAIN_ID, SOFTGRASP_ROBOT_DDS_CONFIG, SOFTGRASP_ROBOT_TOKENS (comma-separated),
+/// SOFTGRASP_ROBOT_JOURNAL_DIR, SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S from the environment.
 core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config);
 
 /// Parses argv: --host H, --port P, --config FILE, --workers N, --web-root DIR, --help. The
@@ -53,7 +81,7 @@ std::string UsageText();
 /// does, else "<prefix>/web".
 std::string DefaultWebRoot(const std::string& executable_path);
 
-/// The effective configuration as JSON (no secrets exist yet; any added later are masked here).
+/// The effective configuration as JSON, with the robot tokens masked.
 std::string ConfigToJson(const ServiceConfig& config);
 
 }  // namespace softgrasp::rest

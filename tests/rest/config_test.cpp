@@ -1,8 +1,10 @@
-#include <cstdlib>
+#include "service/rest/config.h"
 
 #include <gtest/gtest.h>
 
-#include "service/rest/config.h"
+#include <cstdlib>
+#include <string>
+#include <vector>
 
 namespace softgrasp::rest {
 namespace {
@@ -52,6 +54,66 @@ TEST(ConfigTest, BadCommandLinesAreErrors) {
   EXPECT_FALSE(ParseCommandLine({"--bogus"}).ok());
   EXPECT_FALSE(ParseCommandLine({"--config", "/nonexistent/softgrasp.json"}).ok());
   EXPECT_TRUE(ParseCommandLine({"--help"}).value().help);
+}
+
+TEST(ConfigTest, RobotSectionTokensAndWorkspace) {
+  auto c = ApplyConfigJson(ServiceConfig{}, R"({"robot": {
+      "enabled": true, "domain_id": 7, "tokens": ["0123456789abcdef-secret"],
+      "workspace": {"frame_id": "base", "min_m": [-1, -1, 0], "max_m": [1, 1, 2]},
+      "command_timeout_s": 5, "journal_dir": "/tmp/j", "default_force_n": 4.5}})");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  const RobotConfig& r = c.value().robot;
+  EXPECT_EQ(r.domain_id, 7);
+  EXPECT_EQ(r.tokens, std::vector<std::string>{"0123456789abcdef-secret"});
+  EXPECT_EQ(r.workspace.frame_id, "base");
+  EXPECT_EQ(r.workspace.max_m[2], 2.0);
+  EXPECT_EQ(r.command_timeout_s, 5.0);
+  EXPECT_EQ(r.default_force_n, 4.5);
+  EXPECT_EQ(RobotDisabledReason(r), "");
+  // The effective config printed at start-up never shows a token.
+  const std::string printed = ConfigToJson(c.value());
+  EXPECT_EQ(printed.find("secret"), std::string::npos);
+  EXPECT_NE(printed.find("\"tokens\":[\"***\"]"), std::string::npos) << printed;
+
+  for (const char* bad :
+       {R"({"robot": {"tokens": ["short"]}})",
+        R"({"robot": {"tokens": ["has a space in it, 123456"]}})",
+        R"({"robot": {"tokens": "0123456789abcdef"}})", R"({"robot": {"domain_id": 233}})",
+        R"({"robot": {"workspace": {"min_m": [0, 0, 1], "max_m": [1, 1, 1]}}})",
+        R"({"robot": {"workspace": {"min_m": [0, 0]}}})", R"({"robot": {"enabled": "yes"}})"}) {
+    auto e = ApplyConfigJson(ServiceConfig{}, bad);
+    ASSERT_FALSE(e.ok()) << bad;
+    EXPECT_EQ(e.error().message.find("short"), std::string::npos);  // the token is not echoed
+    EXPECT_EQ(e.error().field.rfind("robot.", 0), 0u) << e.error().field;
+  }
+  EXPECT_NE(RobotDisabledReason(RobotConfig{}).find("no tokens"), std::string::npos);
+  RobotConfig off;
+  off.enabled = false;
+  off.tokens = {"0123456789abcdef"};
+  EXPECT_NE(RobotDisabledReason(off).find("robot.enabled"), std::string::npos);
+}
+
+TEST(ConfigTest, RobotEnvironment) {
+  ::setenv("SOFTGRASP_ROBOT_TOKENS", " 0123456789abcdef-one , 0123456789abcdef-two,", 1);
+  ::setenv("SOFTGRASP_ROBOT_DOMAIN_ID", "42", 1);
+  ::setenv("SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S", "2.5", 1);
+  ::setenv("SOFTGRASP_ROBOT_ENABLED", "false", 1);
+  auto c = ApplyEnvironment(ServiceConfig{});
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_EQ(c.value().robot.tokens,
+            (std::vector<std::string>{"0123456789abcdef-one", "0123456789abcdef-two"}));
+  EXPECT_EQ(c.value().robot.domain_id, 42);
+  EXPECT_EQ(c.value().robot.command_timeout_s, 2.5);
+  EXPECT_FALSE(c.value().robot.enabled);
+  ::setenv("SOFTGRASP_ROBOT_TOKENS", "0123456789abcdef,tiny", 1);
+  auto bad = ApplyEnvironment(ServiceConfig{});
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().field, "SOFTGRASP_ROBOT_TOKENS");
+  EXPECT_EQ(bad.error().message.find("tiny"), std::string::npos);
+  for (const char* name : {"SOFTGRASP_ROBOT_TOKENS", "SOFTGRASP_ROBOT_DOMAIN_ID",
+                           "SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S", "SOFTGRASP_ROBOT_ENABLED"}) {
+    ::unsetenv(name);
+  }
 }
 
 }  // namespace

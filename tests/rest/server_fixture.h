@@ -3,20 +3,20 @@
 // over a real socket. One request per connection.
 
 #include <arpa/inet.h>
+#include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/time.h>
 #include <unistd.h>
 
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "service/http/message.h"
 #include "service/http/server.h"
@@ -81,7 +81,8 @@ inline HttpReply Exchange(uint16_t port, const std::string& raw) {
       std::size_t line = head.find("\r\n");
       while (line != std::string::npos) {
         const std::size_t next = head.find("\r\n", line + 2);
-        const std::string field = head.substr(line + 2, next == std::string::npos ? std::string::npos : next - line - 2);
+        const std::string field =
+            head.substr(line + 2, next == std::string::npos ? std::string::npos : next - line - 2);
         const std::size_t colon = field.find(':');
         if (colon != std::string::npos) {
           std::string value = field.substr(colon + 1);
@@ -125,21 +126,25 @@ inline std::string MultipartRequest(const std::string& target, const std::vector
 inline std::string RawRequest(const std::string& method, const std::string& target,
                               const std::string& content_type = "", const std::string& body = "",
                               const std::string& extra_headers = "") {
-  std::string r = method + " " + target + " HTTP/1.1\r\nHost: test\r\nConnection: close\r\n" +
-                  extra_headers;
+  std::string r =
+      method + " " + target + " HTTP/1.1\r\nHost: test\r\nConnection: close\r\n" + extra_headers;
   if (!content_type.empty()) r += "Content-Type: " + content_type + "\r\n";
-  if (!body.empty() || method == "POST") r += "Content-Length: " + std::to_string(body.size()) + "\r\n";
+  if (!body.empty() || method == "POST")
+    r += "Content-Length: " + std::to_string(body.size()) + "\r\n";
   return r + "\r\n" + body;
 }
 
 /// A running server for one test.
 class RunningServer {
  public:
-  explicit RunningServer(ServiceConfig config = {}) : config_(std::move(config)) {
+  explicit RunningServer(ServiceConfig config = {},
+                         std::shared_ptr<robot::CommandTracker> robot = nullptr,
+                         std::function<void(const std::string&)> access_log = nullptr)
+      : config_(std::move(config)) {
     config_.server.host = "127.0.0.1";
     config_.server.port = 0;
-    config_.server.access_log = [](const std::string&) {};
-    router_ = BuildRouter(config_);
+    config_.server.access_log = access_log ? std::move(access_log) : [](const std::string&) {};
+    router_ = BuildRouter(config_, std::move(robot));
     server_ = std::make_unique<http::Server>(
         config_.server, [this](http::Request& r) { return router_.Dispatch(r); });
     server_->Start();

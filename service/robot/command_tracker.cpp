@@ -1,0 +1,510 @@
+#include "service/robot/command_tracker.h"
+
+#include <array>
+#include <cmath>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace softgrasp::robot {
+namespace {
+
+using bridge::GraspCommand;
+using bridge::GraspOutcome;
+using bridge::GraspResult;
+using core::ErrorCode;
+using core::MakeError;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// ---- journal records (one JSON object per line; docs/robot-api.md lists them) ----
+
+json CommandToJson(const GraspCommand& c) {
+  return {{"command_id", c.command_id},
+          {"robot_id", c.robot_id},
+          {"object_id", c.object_id},
+          {"frame_id", c.frame_id},
+          {"position_m", c.position_m},
+          {"orientation_xyzw", c.orientation_xyzw},
+          {"opening_width_m", c.opening_width_m},
+          {"closing_force_n", c.closing_force_n},
+          {"approach_m", c.approach_m},
+          {"retreat_m", c.retreat_m},
+          {"score", c.score},
+          {"issued_unix_ns", c.issued_unix_ns}};
+}
+
+GraspCommand CommandFromJson(const json& j) {  // throws json::exception on a wrong shape
+  GraspCommand c;
+  c.command_id = j.at("command_id").get<std::string>();
+  c.robot_id = j.at("robot_id").get<std::string>();
+  c.object_id = j.at("object_id").get<std::string>();
+  c.frame_id = j.at("frame_id").get<std::string>();
+  c.position_m = j.at("position_m").get<std::array<double, 3>>();
+  c.orientation_xyzw = j.at("orientation_xyzw").get<std::array<double, 4>>();
+  c.opening_width_m = j.at("opening_width_m").get<double>();
+  c.closing_force_n = j.at("closing_force_n").get<double>();
+  c.approach_m = j.at("approach_m").get<double>();
+  c.retreat_m = j.at("retreat_m").get<double>();
+  c.score = j.at("score").get<double>();
+  c.issued_unix_ns = j.at("issued_unix_ns").get<std::int64_t>();
+  return c;
+}
+
+json ResultToJson(const GraspResult& r) {
+  return {{"command_id", r.command_id},
+          {"robot_id", r.robot_id},
+          {"object_id", r.object_id},
+          {"outcome", bridge::OutcomeName(r.outcome)},
+          {"reason", r.reason},
+          {"contact_width_m", r.contact_width_m},
+          {"grasped_width_m", r.grasped_width_m},
+          {"deformation_rate", r.deformation_rate},
+          {"execution_s", r.execution_s},
+          {"finished_unix_ns", r.finished_unix_ns}};
+}
+
+GraspResult ResultFromJson(const json& j) {  // throws json::exception / std::out_of_range
+  GraspResult r;
+  r.command_id = j.at("command_id").get<std::string>();
+  r.robot_id = j.at("robot_id").get<std::string>();
+  r.object_id = j.at("object_id").get<std::string>();
+  const std::string outcome = j.at("outcome").get<std::string>();
+  bool known = false;
+  for (GraspOutcome o : {GraspOutcome::kSucceeded, GraspOutcome::kFailed, GraspOutcome::kRejected,
+                         GraspOutcome::kTimedOut}) {
+    if (outcome == bridge::OutcomeName(o)) {
+      r.outcome = o;
+      known = true;
+    }
+  }
+  if (!known) throw std::out_of_range("unknown outcome '" + outcome + "'");
+  r.reason = j.at("reason").get<std::string>();
+  r.contact_width_m = j.at("contact_width_m").get<double>();
+  r.grasped_width_m = j.at("grasped_width_m").get<double>();
+  r.deformation_rate = j.at("deformation_rate").get<double>();
+  r.execution_s = j.at("execution_s").get<double>();
+  r.finished_unix_ns = j.at("finished_unix_ns").get<std::int64_t>();
+  return r;
+}
+
+CommandState StateFor(GraspOutcome outcome) {
+  switch (outcome) {
+    case GraspOutcome::kSucceeded:
+      return CommandState::kSucceeded;
+    case GraspOutcome::kFailed:
+      return CommandState::kFailed;
+    case GraspOutcome::kRejected:
+      return CommandState::kRejected;
+    case GraspOutcome::kTimedOut:
+      return CommandState::kTimedOut;
+  }
+  return CommandState::kFailed;
+}
+
+Clock::duration Seconds(double s) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+}
+
+std::string TimeoutDetail(double timeout_s) {
+  std::ostringstream os;
+  os << "no result within " << timeout_s << " s; the command was withdrawn from the bus";
+  return os.str();
+}
+
+}  // namespace
+
+const char* CommandStateName(CommandState state) {
+  switch (state) {
+    case CommandState::kQueued:
+      return "queued";
+    case CommandState::kSent:
+      return "sent";
+    case CommandState::kExecuting:
+      return "executing";
+    case CommandState::kSucceeded:
+      return "succeeded";
+    case CommandState::kFailed:
+      return "failed";
+    case CommandState::kRejected:
+      return "rejected";
+    case CommandState::kTimedOut:
+      return "timed_out";
+  }
+  return "failed";
+}
+
+bool IsTerminal(CommandState state) {
+  return state == CommandState::kSucceeded || state == CommandState::kFailed ||
+         state == CommandState::kRejected || state == CommandState::kTimedOut;
+}
+
+CommandTracker::CommandTracker(TrackerOptions options,
+                               std::unique_ptr<bridge::ServiceBridge> bridge)
+    : options_(std::move(options)), bridge_(std::move(bridge)) {}
+
+core::Result<std::unique_ptr<CommandTracker>> CommandTracker::Create(
+    TrackerOptions options, std::unique_ptr<bridge::ServiceBridge> bridge) {
+  if (!bridge) throw std::invalid_argument("CommandTracker::Create: bridge is null");
+  if (!(options.command_timeout_s > 0.0) || !std::isfinite(options.command_timeout_s)) {
+    return MakeError(ErrorCode::kInvalidArgument, "command_timeout_s must be > 0",
+                     "command_timeout_s");
+  }
+  if (!(options.poll_period_s > 0.0) || !(options.republish_period_s > 0.0)) {
+    return MakeError(ErrorCode::kInvalidArgument, "poll and republish periods must be > 0",
+                     "poll_period_s");
+  }
+  auto opened = Journal::Open(options.journal_dir);
+  if (!opened) return opened.error();
+  std::unique_ptr<CommandTracker> tracker(
+      new CommandTracker(std::move(options), std::move(bridge)));
+  tracker->journal_ = std::move(opened.value().journal);
+  tracker->stats_.journal = opened.value().report;
+  for (const std::string& w : opened.value().report.warnings) {
+    tracker->Warn("robot journal " + tracker->journal_->path() + ": " + w);
+  }
+  tracker->Replay(opened.value().payloads);
+  tracker->RepublishQueued();
+  tracker->thread_ = std::thread([t = tracker.get()] { t->Loop(); });
+  return tracker;
+}
+
+CommandTracker::~CommandTracker() {
+  {
+    std::lock_guard<std::mutex> lock(stop_mutex_);
+    stop_ = true;
+  }
+  stop_cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void CommandTracker::Warn(const std::string& message) const {
+  if (options_.log) {
+    options_.log(message);
+  } else {
+    std::cerr << "softgrasp robot: " << message << "\n";
+  }
+}
+
+// ---- replay ----
+
+void CommandTracker::Replay(const std::vector<std::string>& payloads) {
+  for (const std::string& payload : payloads) ReplayOne(payload);
+  // What was accepted but has no outcome goes out again, with a fresh deadline: the robot may
+  // still deliver a result it wrote while the service was down (results are transient-local).
+  const auto now = Clock::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (auto& [id, entry] : entries_) {
+    if (IsTerminal(entry.record.state)) continue;
+    entry.record.state = CommandState::kQueued;
+    entry.deadline = now + Seconds(options_.command_timeout_s);
+    entry.last_publish = now - Seconds(options_.republish_period_s);  // due now
+  }
+}
+
+void CommandTracker::ReplayOne(const std::string& payload) {
+  const auto skip = [&](const std::string& why) {
+    ++stats_.skipped_records;
+    Warn("robot journal: record skipped (" + why + "): " + payload.substr(0, 200));
+  };
+  const json j = json::parse(payload, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("type") || !j["type"].is_string() ||
+      !j.contains("id") || !j["id"].is_string()) {
+    return skip("not a journal record");
+  }
+  const std::string type = j["type"];
+  const std::string id = j["id"];
+  try {
+    if (type == "accepted") {
+      auto command = bridge::Validate(CommandFromJson(j.at("command")));
+      if (!command) return skip(command.error().message);
+      if (command.value().command_id != id) return skip("id does not match the command");
+      if (entries_.count(id) != 0) return skip("id accepted twice");
+      Entry entry;
+      entry.record.command = std::move(command).value();
+      entry.record.fingerprint = j.at("fingerprint").get<std::string>();
+      entry.record.accepted_unix_ns = j.at("accepted_unix_ns").get<std::int64_t>();
+      entries_.emplace(id, std::move(entry));
+      ++stats_.replayed_commands;
+      return;
+    }
+    const auto it = entries_.find(id);
+    if (it == entries_.end()) return skip("no accepted command with this id");
+    CommandRecord& record = it->second.record;
+    if (type == "result") {
+      auto result = bridge::Validate(ResultFromJson(j.at("result")));
+      if (!result) return skip(result.error().message);
+      if (record.result) return skip("second result for the id");
+      record.result_late = record.state == CommandState::kTimedOut;
+      if (!record.result_late) record.state = StateFor(result.value().outcome);
+      record.result = std::move(result).value();
+      record.result_received_unix_ns = j.at("received_unix_ns").get<std::int64_t>();
+    } else if (type == "timed_out") {
+      if (IsTerminal(record.state)) return skip("timeout for a finished command");
+      record.state = CommandState::kTimedOut;
+      record.timed_out_unix_ns = j.at("unix_ns").get<std::int64_t>();
+      record.detail = j.at("detail").get<std::string>();
+    } else {
+      return skip("unknown type '" + type + "'");
+    }
+  } catch (const std::exception& e) {
+    return skip(e.what());
+  }
+}
+
+// ---- submission ----
+
+core::Result<CommandTracker::Submitted> CommandTracker::Submit(GraspCommand command,
+                                                               std::string fingerprint) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (const auto it = entries_.find(command.command_id); it != entries_.end()) {
+      if (it->second.record.fingerprint != fingerprint) {
+        return MakeError(ErrorCode::kConflict,
+                         "command id '" + command.command_id +
+                             "' was already used for a different grasp; choose a new id",
+                         "id");
+      }
+      return Submitted{it->second.record, false};
+    }
+  }
+  // Pick the robot. Reading the robots does not need our lock.
+  const std::vector<bridge::RobotInfo> alive = bridge_->AliveRobots();
+  if (command.robot_id.empty()) {
+    if (alive.empty()) {
+      return MakeError(ErrorCode::kUnavailable, "no robot is alive on the bus; retry later");
+    }
+    if (alive.size() > 1) {
+      std::string names;
+      for (const auto& r : alive) names += (names.empty() ? "" : ", ") + r.status.robot_id;
+      return MakeError(ErrorCode::kUnprocessable,
+                       "several robots are alive (" + names + "): name one in robot_id",
+                       "robot_id");
+    }
+    command.robot_id = alive.front().status.robot_id;
+  } else {
+    bool found = false;
+    for (const auto& r : alive) found = found || r.status.robot_id == command.robot_id;
+    if (!found) {
+      return MakeError(ErrorCode::kUnavailable,
+                       "robot '" + command.robot_id + "' is not alive on the bus; retry later");
+    }
+  }
+  command.issued_unix_ns = bridge::UnixNowNs();
+  auto valid = bridge::Validate(std::move(command));
+  if (!valid) return valid.error();
+
+  Submitted out;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const GraspCommand& c = valid.value();
+    // Another request with this id may have won while we looked at the robots.
+    if (const auto it = entries_.find(c.command_id); it != entries_.end()) {
+      if (it->second.record.fingerprint != fingerprint) {
+        return MakeError(ErrorCode::kConflict,
+                         "command id '" + c.command_id +
+                             "' was already used for a different grasp; choose a new id",
+                         "id");
+      }
+      return Submitted{it->second.record, false};
+    }
+    Entry entry;
+    entry.record.command = c;
+    entry.record.fingerprint = std::move(fingerprint);
+    entry.record.accepted_unix_ns = c.issued_unix_ns;
+    entry.record.state = CommandState::kQueued;
+    entry.deadline = Clock::now() + Seconds(options_.command_timeout_s);
+    entry.last_publish = Clock::now();
+    const json record = {{"type", "accepted"},
+                         {"id", c.command_id},
+                         {"fingerprint", entry.record.fingerprint},
+                         {"accepted_unix_ns", entry.record.accepted_unix_ns},
+                         {"command", CommandToJson(c)}};
+    // Journal first: a command the journal does not hold is never sent.
+    auto journaled = journal_->Append(record.dump());
+    if (!journaled) {
+      return MakeError(
+          ErrorCode::kInternal,
+          "the command could not be journaled, so it was not sent: " + journaled.error().message);
+    }
+    entries_.emplace(c.command_id, entry);
+    out = Submitted{entry.record, true};
+  }
+  PublishOutsideLock(out.record.command);
+  if (auto now = Get(out.record.command.command_id)) out.record = *now;
+  return out;
+}
+
+void CommandTracker::PublishOutsideLock(const GraspCommand& command) {
+  // The DDS write can block (reliable, up to 1 s): never under our lock.
+  auto published = bridge_->Publish(command);
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = entries_.find(command.command_id);
+  if (it == entries_.end()) return;
+  CommandRecord& record = it->second.record;
+  if (published) {
+    if (record.state == CommandState::kQueued) record.state = CommandState::kSent;
+    record.detail.clear();
+  } else if (record.state == CommandState::kQueued) {
+    record.detail = "writing on the bus failed, retrying: " + published.error().message;
+  }
+}
+
+// ---- reading ----
+
+std::optional<CommandRecord> CommandTracker::Get(const std::string& command_id) const {
+  std::optional<CommandRecord> out;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = entries_.find(command_id);
+    if (it == entries_.end()) return std::nullopt;
+    out = it->second.record;
+  }
+  // Between two polls of the background thread the heartbeat may already say "executing".
+  if (out->state == CommandState::kSent || out->state == CommandState::kQueued) {
+    for (const auto& robot : bridge_->AliveRobots()) {
+      if (robot.status.state == bridge::RobotState::kExecuting &&
+          robot.status.current_command_id == command_id) {
+        out->state = CommandState::kExecuting;
+      }
+    }
+  }
+  return out;
+}
+
+TrackerStats CommandTracker::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_;
+}
+
+// ---- background thread ----
+
+void CommandTracker::Loop() {
+  auto next_republish = Clock::now() + Seconds(options_.republish_period_s);
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lock(stop_mutex_);
+      if (stop_) return;
+    }
+    // Waits for results up to one poll period (this is also the loop's sleep).
+    ApplyResults(bridge_->WaitForResults(options_.poll_period_s));
+    NoteExecuting();
+    ExpireOverdue();
+    if (Clock::now() >= next_republish) {
+      RepublishQueued();
+      next_republish = Clock::now() + Seconds(options_.republish_period_s);
+    }
+  }
+}
+
+void CommandTracker::AppendJournal(const std::string& payload) {
+  auto appended = journal_->Append(payload);
+  if (appended) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++stats_.journal_errors;
+  Warn("robot journal: write failed (" + appended.error().message +
+       "); the state is kept in memory only");
+}
+
+void CommandTracker::ApplyResults(std::vector<GraspResult> results) {
+  const std::int64_t now_ns = bridge::UnixNowNs();
+  for (GraspResult& result : results) {
+    std::string record;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto it = entries_.find(result.command_id);
+      if (it == entries_.end()) {
+        ++stats_.unknown_results;  // another service's command, or one from before the journal
+        continue;
+      }
+      CommandRecord& r = it->second.record;
+      if (r.result) continue;  // robots re-send kept results to a service that (re)joins
+      r.result_late = r.state == CommandState::kTimedOut;
+      if (r.result_late) {
+        Warn("robot result for '" + r.command.command_id + "' arrived after its timeout");
+      } else {
+        r.state = StateFor(result.outcome);
+        r.detail.clear();
+      }
+      r.result_received_unix_ns = now_ns;
+      r.result = result;
+      record = json{{"type", "result"},
+                    {"id", r.command.command_id},
+                    {"received_unix_ns", now_ns},
+                    {"result", ResultToJson(result)}}
+                   .dump();
+    }
+    AppendJournal(record);
+  }
+}
+
+void CommandTracker::NoteExecuting() {
+  const auto robots = bridge_->AliveRobots();
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& robot : robots) {
+    if (robot.status.state != bridge::RobotState::kExecuting) continue;
+    const auto it = entries_.find(robot.status.current_command_id);
+    if (it == entries_.end()) continue;
+    CommandState& state = it->second.record.state;
+    if (state == CommandState::kQueued || state == CommandState::kSent) {
+      state = CommandState::kExecuting;
+    }
+  }
+}
+
+void CommandTracker::ExpireOverdue() {
+  const auto now = Clock::now();
+  std::vector<std::string> overdue;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [id, entry] : entries_) {
+      if (!IsTerminal(entry.record.state) && now >= entry.deadline) overdue.push_back(id);
+    }
+  }
+  if (overdue.empty()) return;
+  // Withdraw first, then say "timed_out": a client told so may start a robot at once, and that
+  // robot must not be offered the command any more.
+  for (const std::string& id : overdue) {
+    if (auto retired = bridge_->Retire(id); !retired) {
+      Warn("retiring timed-out command '" + id + "': " + retired.error().message);
+    }
+  }
+  std::vector<std::string> records;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const std::string& id : overdue) {
+      CommandRecord& r = entries_.at(id).record;
+      if (IsTerminal(r.state)) continue;  // its result came in meanwhile: the result wins
+      r.state = CommandState::kTimedOut;
+      r.timed_out_unix_ns = bridge::UnixNowNs();
+      r.detail = TimeoutDetail(options_.command_timeout_s);
+      records.push_back(json{
+          {"type", "timed_out"}, {"id", id}, {"unix_ns", r.timed_out_unix_ns}, {"detail", r.detail}}
+                            .dump());
+    }
+  }
+  for (const std::string& record : records) AppendJournal(record);
+}
+
+void CommandTracker::RepublishQueued() {
+  const auto now = Clock::now();
+  std::vector<GraspCommand> due;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto& [id, entry] : entries_) {
+      if (entry.record.state != CommandState::kQueued) continue;
+      if (now - entry.last_publish < Seconds(options_.republish_period_s)) continue;
+      entry.last_publish = now;
+      due.push_back(entry.record.command);
+    }
+  }
+  for (const GraspCommand& command : due) {
+    PublishOutsideLock(command);
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++stats_.republished;
+  }
+}
+
+}  // namespace softgrasp::robot

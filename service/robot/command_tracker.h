@@ -1,0 +1,145 @@
+#pragma once
+/// The service's record of the grasps it forwarded to robots: idempotent submission by a
+/// client-chosen id, the state of each command as it moves (queued -> sent -> executing ->
+/// result), timeouts, and a journal on disk so that a restart loses no accepted command and no
+/// result. Knows nothing of HTTP; the REST layer (service/rest/robot_api.cpp) sits on top.
+/// docs/robot-api.md describes the states and the journal.
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "service/bridge/bridge.h"
+#include "service/core/status.h"
+#include "service/robot/journal.h"
+
+namespace softgrasp::robot {
+
+enum class CommandState {
+  kQueued,     ///< accepted and journaled, not yet written on the bus (retried)
+  kSent,       ///< written on the bus; no robot reported it as running yet
+  kExecuting,  ///< a robot's heartbeat names it as its current command
+  kSucceeded,  ///< terminal states: the robot's outcome, or the service's timeout
+  kFailed,
+  kRejected,
+  kTimedOut,
+};
+
+/// "queued", "sent", "executing", "succeeded", "failed", "rejected", "timed_out".
+const char* CommandStateName(CommandState state);
+bool IsTerminal(CommandState state);
+
+struct TrackerOptions {
+  /// Folder of the journal (created if needed). Required.
+  std::string journal_dir;
+  /// A command with no result this long after it was accepted becomes kTimedOut and is retired
+  /// from the bus. After a restart, pending commands get this long again from the restart.
+  double command_timeout_s = 60.0;
+  /// How often the background thread drains results, checks timeouts and robot states.
+  double poll_period_s = 0.05;
+  /// How often queued commands (whose first write failed) are written again.
+  double republish_period_s = 1.0;
+  /// Warnings (journal problems, late or unknown results). Default: stderr.
+  std::function<void(const std::string&)> log;
+};
+
+struct CommandRecord {
+  bridge::GraspCommand command;  ///< as sent (robot_id is the robot chosen)
+  /// The request as the client gave it, canonical: same id with another fingerprint is kConflict.
+  std::string fingerprint;
+  CommandState state = CommandState::kQueued;
+  std::int64_t accepted_unix_ns = 0;
+  std::optional<bridge::GraspResult> result;
+  std::int64_t result_received_unix_ns = 0;
+  /// A result that arrived after the command had timed out (the state stays kTimedOut).
+  bool result_late = false;
+  std::int64_t timed_out_unix_ns = 0;
+  std::string detail;  ///< why it is queued or timed out, for people
+};
+
+/// What the background thread and the replay have seen, for tests and /v1/robot.
+struct TrackerStats {
+  std::int64_t replayed_commands = 0;  ///< commands read back from the journal at start
+  std::int64_t republished = 0;        ///< queued commands written again (start, retries)
+  std::int64_t skipped_records = 0;    ///< journal records that could not be used
+  std::int64_t unknown_results = 0;    ///< results for ids this service never accepted
+  std::int64_t journal_errors = 0;     ///< failed journal writes after acceptance
+  JournalReport journal;
+};
+
+class CommandTracker {
+ public:
+  /// Opens the journal, replays it, writes pending commands on the bus again (robots run an id
+  /// at most once, so this is safe) and starts the background thread. Errors: bad options
+  /// (kInvalidArgument), the journal's errors (kConflict when another process holds it).
+  static core::Result<std::unique_ptr<CommandTracker>> Create(
+      TrackerOptions options, std::unique_ptr<bridge::ServiceBridge> bridge);
+  ~CommandTracker();
+  CommandTracker(const CommandTracker&) = delete;
+  CommandTracker& operator=(const CommandTracker&) = delete;
+
+  struct Submitted {
+    CommandRecord record;
+    bool created = false;  ///< false: the id was known with the same fingerprint (a replay)
+  };
+
+  /// Accepts a command at most once per command_id. A known id with the same fingerprint gives
+  /// the existing record (nothing is sent again); with another fingerprint, kConflict. For a new
+  /// id: picks the robot (the named one, or the only alive one), journals the command, then
+  /// writes it on the bus. Errors: kUnavailable (no robot alive, or the named one is not),
+  /// kUnprocessable (several robots alive and none named; the command is invalid for the bus),
+  /// kInternal (the journal cannot be written: nothing is sent).
+  core::Result<Submitted> Submit(bridge::GraspCommand command, std::string fingerprint);
+
+  /// The record of `command_id`, with kExecuting when a robot's heartbeat says so.
+  std::optional<CommandRecord> Get(const std::string& command_id) const;
+
+  std::vector<bridge::RobotInfo> Robots() const { return bridge_->Robots(); }
+  TrackerStats stats() const;
+  const TrackerOptions& options() const { return options_; }
+  bridge::ServiceBridge& bridge() { return *bridge_; }
+
+ private:
+  using SteadyTime = std::chrono::steady_clock::time_point;
+  struct Entry {
+    CommandRecord record;
+    SteadyTime deadline;
+    SteadyTime last_publish;  ///< last write attempt, so the retry does not race Submit's write
+  };
+
+  CommandTracker(TrackerOptions options, std::unique_ptr<bridge::ServiceBridge> bridge);
+  void Replay(const std::vector<std::string>& payloads);
+  void ReplayOne(const std::string& payload);
+  void Warn(const std::string& message) const;
+  void Loop();
+  void ApplyResults(std::vector<bridge::GraspResult> results);
+  void ExpireOverdue();
+  void NoteExecuting();
+  void RepublishQueued();
+  /// Writes the command on the bus and moves it from queued to sent, outside the lock.
+  void PublishOutsideLock(const bridge::GraspCommand& command);
+  void AppendJournal(const std::string& payload);  // logs and counts failures
+
+  TrackerOptions options_;
+  std::unique_ptr<bridge::ServiceBridge> bridge_;
+  std::unique_ptr<Journal> journal_;
+
+  mutable std::mutex mutex_;
+  std::map<std::string, Entry> entries_;
+  TrackerStats stats_;
+
+  std::mutex stop_mutex_;
+  std::condition_variable stop_cv_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+}  // namespace softgrasp::robot

@@ -1,0 +1,322 @@
+// CommandTracker with a real ServiceBridge and a real RobotEndpoint in this process (loopback DDS,
+// this binary's own domain): forward -> executing -> result, idempotency counted on the bus,
+// robot choice, timeouts, and restarts over the journal (including a result written while the
+// service was down).
+#include "service/robot/command_tracker.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tests/robot/robot_test_util.h"
+
+namespace softgrasp::robot {
+namespace {
+
+using bridge::GraspCommand;
+using bridge::RobotState;
+using bridge::testing::MakeCommand;
+using testing::MakeRobot;
+using testing::MakeServiceBridge;
+using testing::PoseCounter;
+using testing::SqueezeResult;
+using testing::TempDir;
+using testing::WaitUntil;
+
+struct Logged {
+  std::vector<std::string> lines;
+  std::mutex mutex;
+};
+
+std::unique_ptr<CommandTracker> MakeTracker(const std::string& dir, double timeout_s = 20.0,
+                                            Logged* logged = nullptr) {
+  TrackerOptions options;
+  options.journal_dir = dir;
+  options.command_timeout_s = timeout_s;
+  options.republish_period_s = 0.2;
+  if (logged != nullptr) {
+    options.log = [logged](const std::string& line) {
+      std::lock_guard<std::mutex> lock(logged->mutex);
+      logged->lines.push_back(line);
+    };
+  }
+  auto tracker = CommandTracker::Create(options, MakeServiceBridge());
+  if (!tracker) ADD_FAILURE() << tracker.error().message;
+  return tracker ? std::move(tracker).value() : nullptr;
+}
+
+bool RobotAlive(const CommandTracker& tracker, const std::string& id) {
+  for (const auto& r : tracker.Robots()) {
+    if (r.status.robot_id == id && r.alive) return true;
+  }
+  return false;
+}
+
+CommandState StateOf(const CommandTracker& tracker, const std::string& id) {
+  auto record = tracker.Get(id);
+  return record ? record->state : CommandState::kQueued;
+}
+
+// Commands from the service carry no robot id; the tracker fills it in.
+GraspCommand Command(const std::string& id) {
+  GraspCommand c = MakeCommand(id);
+  c.issued_unix_ns = 0;
+  return c;
+}
+
+TEST(CommandTrackerTest, ForwardExecuteAndResultWithTheRobotsNumbers) {
+  TempDir dir("tracker-forward");
+  auto tracker = MakeTracker(dir.str());
+  auto robot = MakeRobot("arm-1");
+  ASSERT_TRUE(tracker && robot);
+  ASSERT_GE(WaitUntil([&] { return RobotAlive(*tracker, "arm-1"); }, 10.0), 0.0);
+
+  auto submitted = tracker->Submit(Command("grasp-1"), "fp-1");
+  ASSERT_TRUE(submitted) << submitted.error().message;
+  EXPECT_TRUE(submitted.value().created);
+  EXPECT_EQ(submitted.value().record.command.robot_id, "arm-1");  // the only robot alive
+  EXPECT_EQ(submitted.value().record.state, CommandState::kSent);
+  EXPECT_GT(submitted.value().record.accepted_unix_ns, 0);
+
+  auto received = robot->WaitForCommand(10.0);
+  ASSERT_TRUE(received && received.value()) << "the robot got no command";
+  const GraspCommand& c = *received.value();
+  EXPECT_EQ(c.command_id, "grasp-1");
+  EXPECT_EQ(c.position_m, MakeCommand("x").position_m);
+
+  ASSERT_TRUE(robot->Heartbeat(RobotState::kExecuting, c.command_id));
+  EXPECT_GE(
+      WaitUntil([&] { return StateOf(*tracker, "grasp-1") == CommandState::kExecuting; }, 5.0),
+      0.0);
+  const bridge::GraspResult sent = SqueezeResult(c);
+  ASSERT_TRUE(robot->PublishResult(sent));
+  ASSERT_TRUE(robot->Heartbeat(RobotState::kIdle));
+  ASSERT_GE(
+      WaitUntil([&] { return StateOf(*tracker, "grasp-1") == CommandState::kSucceeded; }, 10.0),
+      0.0);
+  const CommandRecord record = *tracker->Get("grasp-1");
+  ASSERT_TRUE(record.result.has_value());
+  EXPECT_EQ(record.result->robot_id, "arm-1");
+  EXPECT_DOUBLE_EQ(record.result->contact_width_m, 0.06);
+  EXPECT_DOUBLE_EQ(record.result->grasped_width_m, 0.048);
+  EXPECT_NEAR(record.result->deformation_rate, 0.2, 1e-12);
+  EXPECT_DOUBLE_EQ(record.result->execution_s, 1.25);
+  EXPECT_FALSE(record.result_late);
+  EXPECT_GE(record.result_received_unix_ns, record.accepted_unix_ns);
+  EXPECT_FALSE(tracker->Get("never-sent").has_value());
+}
+
+TEST(CommandTrackerTest, SameIdTwiceGoesOnTheBusOnceAndAnotherBodyConflicts) {
+  TempDir dir("tracker-idempotent");
+  auto tracker = MakeTracker(dir.str());
+  auto robot = MakeRobot("arm-1");
+  ASSERT_TRUE(tracker && robot);
+  PoseCounter poses;
+  ASSERT_GE(WaitUntil([&] { return RobotAlive(*tracker, "arm-1") && poses.matched() > 0; }, 10.0),
+            0.0);
+
+  auto first = tracker->Submit(Command("same"), "fp-a");
+  ASSERT_TRUE(first) << first.error().message;
+  EXPECT_TRUE(first.value().created);
+  auto again = tracker->Submit(Command("same"), "fp-a");
+  ASSERT_TRUE(again) << again.error().message;
+  EXPECT_FALSE(again.value().created);
+  EXPECT_EQ(again.value().record.accepted_unix_ns, first.value().record.accepted_unix_ns);
+  auto other = tracker->Submit(Command("same"), "fp-b");
+  ASSERT_FALSE(other);
+  EXPECT_EQ(other.error().code, core::ErrorCode::kConflict);
+  EXPECT_EQ(other.error().field, "id");
+
+  ASSERT_GE(WaitUntil([&] { return poses.count() >= 1; }, 5.0), 0.0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // time for a second write
+  EXPECT_EQ(poses.count(), 1);
+  auto received = robot->WaitForCommand(5.0);
+  ASSERT_TRUE(received && received.value());
+  EXPECT_FALSE(robot->WaitForCommand(0.3).value().has_value());
+}
+
+TEST(CommandTrackerTest, RobotChoiceNoneSeveralAndNamed) {
+  TempDir dir("tracker-choice");
+  auto tracker = MakeTracker(dir.str());
+  ASSERT_TRUE(tracker);
+  PoseCounter poses;
+
+  auto none = tracker->Submit(Command("c1"), "fp");
+  ASSERT_FALSE(none);
+  EXPECT_EQ(none.error().code, core::ErrorCode::kUnavailable);
+  EXPECT_FALSE(tracker->Get("c1").has_value());  // not accepted: the id stays free
+
+  auto left = MakeRobot("arm-left");
+  auto right = MakeRobot("arm-right");
+  ASSERT_TRUE(left && right);
+  ASSERT_GE(
+      WaitUntil([&] { return tracker->bridge().AliveRobots().size() == 2 && poses.matched() > 0; },
+                10.0),
+      0.0);
+  auto several = tracker->Submit(Command("c1"), "fp");
+  ASSERT_FALSE(several);
+  EXPECT_EQ(several.error().code, core::ErrorCode::kUnprocessable);
+  EXPECT_EQ(several.error().field, "robot_id");
+  EXPECT_NE(several.error().message.find("arm-left, arm-right"), std::string::npos);
+
+  GraspCommand named = Command("c1");
+  named.robot_id = "arm-ghost";
+  auto ghost = tracker->Submit(named, "fp");
+  ASSERT_FALSE(ghost);
+  EXPECT_EQ(ghost.error().code, core::ErrorCode::kUnavailable);
+
+  named.robot_id = "arm-right";
+  auto ok = tracker->Submit(named, "fp");
+  ASSERT_TRUE(ok) << ok.error().message;
+  auto at_right = right->WaitForCommand(10.0);
+  ASSERT_TRUE(at_right && at_right.value());
+  EXPECT_EQ(at_right.value()->command_id, "c1");
+  EXPECT_FALSE(left->WaitForCommand(0.5).value().has_value());
+  // Nothing was written for the three refused submissions.
+  ASSERT_GE(WaitUntil([&] { return poses.count() >= 1; }, 5.0), 0.0);
+  EXPECT_EQ(poses.count(), 1);
+}
+
+TEST(CommandTrackerTest, NoResultInTimeBecomesTimedOutAndIsWithdrawnFromTheBus) {
+  TempDir dir("tracker-timeout");
+  auto tracker = MakeTracker(dir.str(), /*timeout_s=*/0.8);
+  ASSERT_TRUE(tracker);
+  {
+    auto silent = MakeRobot("arm-1");  // alive, but never takes the command
+    ASSERT_GE(WaitUntil([&] { return RobotAlive(*tracker, "arm-1"); }, 10.0), 0.0);
+    ASSERT_TRUE(tracker->Submit(Command("slow"), "fp"));
+    const double waited =
+        WaitUntil([&] { return StateOf(*tracker, "slow") == CommandState::kTimedOut; }, 5.0);
+    ASSERT_GE(waited, 0.0);
+    EXPECT_GE(waited, 0.5);  // not before the deadline
+    const CommandRecord record = *tracker->Get("slow");
+    EXPECT_NE(record.detail.find("no result within 0.8 s"), std::string::npos);
+    EXPECT_GT(record.timed_out_unix_ns, record.accepted_unix_ns);
+    EXPECT_FALSE(record.result.has_value());
+  }
+  // A robot (re)joining now is not offered the withdrawn command.
+  auto fresh = MakeRobot("arm-1");
+  ASSERT_TRUE(fresh);
+  ASSERT_GE(WaitUntil([&] { return RobotAlive(*tracker, "arm-1"); }, 10.0), 0.0);
+  EXPECT_FALSE(fresh->WaitForCommand(1.0).value().has_value());
+}
+
+TEST(CommandTrackerTest, RestartKeepsResultsAndResendsPendingCommands) {
+  TempDir dir("tracker-restart");
+  {
+    auto tracker = MakeTracker(dir.str());
+    auto robot = MakeRobot("arm-1");
+    ASSERT_TRUE(tracker && robot);
+    ASSERT_GE(WaitUntil([&] { return RobotAlive(*tracker, "arm-1"); }, 10.0), 0.0);
+    ASSERT_TRUE(tracker->Submit(Command("done"), "fp-done"));
+    auto c = robot->WaitForCommand(10.0);
+    ASSERT_TRUE(c && c.value());
+    ASSERT_TRUE(robot->PublishResult(SqueezeResult(*c.value())));
+    ASSERT_GE(
+        WaitUntil([&] { return StateOf(*tracker, "done") == CommandState::kSucceeded; }, 10.0),
+        0.0);
+    // Accepted while the robot was there; the robot goes away before taking it.
+    ASSERT_TRUE(tracker->Submit(Command("pending"), "fp-pending"));
+    robot.reset();
+  }  // the service "crashes": bridge and tracker gone, only the journal stays
+
+  auto tracker = MakeTracker(dir.str());
+  ASSERT_TRUE(tracker);
+  EXPECT_EQ(tracker->stats().replayed_commands, 2);
+  EXPECT_EQ(tracker->stats().republished, 1);
+  const auto done = tracker->Get("done");
+  ASSERT_TRUE(done && done->result);
+  EXPECT_EQ(done->state, CommandState::kSucceeded);
+  EXPECT_DOUBLE_EQ(done->result->grasped_width_m, 0.048);
+  EXPECT_EQ(done->fingerprint, "fp-done");
+  // Idempotency survives the restart too.
+  auto replay = tracker->Submit(Command("done"), "fp-done");
+  ASSERT_TRUE(replay);
+  EXPECT_FALSE(replay.value().created);
+  EXPECT_EQ(tracker->Submit(Command("done"), "other").error().code, core::ErrorCode::kConflict);
+
+  // A robot starting now gets the pending command from the restarted service alone.
+  auto robot = MakeRobot("arm-1");
+  ASSERT_TRUE(robot);
+  auto c = robot->WaitForCommand(10.0);
+  ASSERT_TRUE(c && c.value()) << "the pending command was not re-sent";
+  EXPECT_EQ(c.value()->command_id, "pending");
+  ASSERT_TRUE(robot->PublishResult(SqueezeResult(*c.value())));
+  EXPECT_GE(
+      WaitUntil([&] { return StateOf(*tracker, "pending") == CommandState::kSucceeded; }, 10.0),
+      0.0);
+}
+
+TEST(CommandTrackerTest, ResultWrittenWhileTheServiceWasDownArrivesAfterRestart) {
+  TempDir dir("tracker-down");
+  auto robot = MakeRobot("arm-1");
+  ASSERT_TRUE(robot);
+  std::optional<GraspCommand> running;
+  {
+    auto tracker = MakeTracker(dir.str());
+    ASSERT_TRUE(tracker);
+    ASSERT_GE(WaitUntil([&] { return RobotAlive(*tracker, "arm-1"); }, 10.0), 0.0);
+    ASSERT_TRUE(tracker->Submit(Command("mid"), "fp"));
+    auto c = robot->WaitForCommand(10.0);
+    ASSERT_TRUE(c && c.value());
+    running = *c.value();
+  }  // the service dies while the robot executes
+  ASSERT_TRUE(robot->PublishResult(SqueezeResult(*running)));
+
+  auto tracker = MakeTracker(dir.str());
+  ASSERT_TRUE(tracker);
+  EXPECT_GE(WaitUntil([&] { return StateOf(*tracker, "mid") == CommandState::kSucceeded; }, 10.0),
+            0.0);
+  // The re-sent command was not run again: the robot delivers each id once.
+  EXPECT_FALSE(robot->WaitForCommand(0.5).value().has_value());
+}
+
+TEST(CommandTrackerTest, BadJournalRecordsAreSkippedWithWarnings) {
+  TempDir dir("tracker-badjournal");
+  std::filesystem::create_directories(dir.path());
+  {
+    std::ofstream out(dir.path() / kJournalFileName, std::ios::binary);
+    const std::vector<std::string> payloads = {
+        "not json",
+        R"({"type":"accepted"})",
+        R"({"type":"accepted","id":"x","fingerprint":"f","accepted_unix_ns":1,"command":{"command_id":"x"}})",
+        R"({"type":"result","id":"unknown","received_unix_ns":1,"result":{}})",
+        R"({"type":"mystery","id":"y"})",
+    };
+    for (const auto& p : payloads) out << EncodeJournalLine(p) << "\n";
+    out << "deadbeef torn";  // no newline: a torn tail
+  }
+  Logged logged;
+  auto tracker = MakeTracker(dir.str(), 20.0, &logged);
+  ASSERT_TRUE(tracker);
+  const TrackerStats stats = tracker->stats();
+  EXPECT_EQ(stats.skipped_records, 5);
+  EXPECT_EQ(stats.replayed_commands, 0);
+  EXPECT_TRUE(stats.journal.torn_tail);
+  std::lock_guard<std::mutex> lock(logged.mutex);
+  EXPECT_EQ(logged.lines.size(), 6u);  // five records and the torn tail
+}
+
+TEST(CommandTrackerTest, BadOptionsAreErrors) {
+  TrackerOptions options;
+  options.journal_dir = "";
+  auto no_dir = CommandTracker::Create(options, MakeServiceBridge());
+  ASSERT_FALSE(no_dir);
+  EXPECT_EQ(no_dir.error().field, "journal_dir");
+  options.journal_dir = "/tmp/unused";
+  options.command_timeout_s = -1;
+  auto bad_timeout = CommandTracker::Create(options, MakeServiceBridge());
+  ASSERT_FALSE(bad_timeout);
+  EXPECT_EQ(bad_timeout.error().field, "command_timeout_s");
+}
+
+}  // namespace
+}  // namespace softgrasp::robot
