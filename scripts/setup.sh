@@ -11,6 +11,8 @@ PACKAGES=(
   cyclonedds-dev cyclonedds-tools libembree-dev libpcl-dev libbullet-dev libtorch-dev libcgal-dev
   # tests and benchmarks; chromium drives the browser tests of the web page (tests/web)
   libgtest-dev libgmock-dev libbenchmark-dev chromium
+  # the two-host test (tests/netns): network namespaces and veth pairs, HTTP and JSON in bash
+  iproute2 jq
 )
 # node and npm bundle the web page (scripts/build.sh). Any node >= 18 will do: Debian's nodejs and
 # npm are added only when no node is on the PATH, so a newer one already installed is kept.

@@ -1,5 +1,6 @@
-// softgrasp-sim: the simulator's command line: `generate` (datasets of simulated scenes) and
-// `fractals` (batches of fractal training meshes). Parsing only; the work is in the libraries.
+// softgrasp-sim: the simulator's command line: `generate` (datasets of simulated scenes),
+// `fractals` (batches of fractal training meshes) and `robot` (a simulated robot on the DDS bus).
+// Parsing only; the work is in the libraries.
 #include <cstdlib>
 #include <iostream>
 #include <memory>
@@ -10,6 +11,7 @@
 #include "sim/dataset/user_objects.h"
 #include "sim/fractal_batch.h"
 #include "sim/progress.h"
+#include "sim/robot/robot_cli.h"
 
 namespace {
 
@@ -181,11 +183,14 @@ int RunFractals(const std::vector<std::string>& args) {
 int main(int argc, char** argv) {
   const std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty() || args[0] == "--help" || args[0] == "-h") {
-    std::cout << kUsage;
+    std::cout << kUsage << "\n" << sim::RobotUsage();
     return args.empty() ? 2 : 0;
   }
   if (args[0] == "generate") return RunGenerate({args.begin() + 1, args.end()});
   if (args[0] == "fractals") return RunFractals({args.begin() + 1, args.end()});
-  std::cerr << "softgrasp-sim: unknown command '" << args[0] << "'\n" << kUsage;
+  if (args[0] == "robot") return sim::RunRobotCommand({args.begin() + 1, args.end()});
+  std::cerr << "softgrasp-sim: unknown command '" << args[0] << "'\n"
+            << kUsage << "\n"
+            << sim::RobotUsage();
   return 2;
 }
