@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -21,6 +22,24 @@ core::Result<std::string> ReadFile(const std::filesystem::path& path, const std:
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+// Welds vertices with exactly equal coordinates (meshes exported as triangle soups, one vertex
+// per face corner), keeping the first occurrence and its stiffness. Returns the old -> new map.
+std::vector<int> WeldExactDuplicates(mesh::TriangleMesh* mesh) {
+  std::map<std::array<double, 3>, int> first;
+  std::vector<int> remap(mesh->vertices.size());
+  std::vector<std::array<double, 3>> kept;
+  for (std::size_t i = 0; i < mesh->vertices.size(); ++i) {
+    const auto [it, inserted] = first.emplace(mesh->vertices[i], static_cast<int>(kept.size()));
+    if (inserted) kept.push_back(mesh->vertices[i]);
+    remap[i] = it->second;
+  }
+  for (auto& face : mesh->faces) {
+    for (int& index : face) index = remap[static_cast<std::size_t>(index)];
+  }
+  mesh->vertices = std::move(kept);
+  return remap;
 }
 
 }  // namespace
@@ -84,7 +103,27 @@ core::Result<SimObject> LoadUserObject(const UserObjectSpec& spec) {
   } else {
     shape["stiffness"] = spec.stiffness;
   }
-  return MakeMeshObject(std::move(mesh).value(), std::move(vertex_stiffness), spec.stiffness,
+  mesh::TriangleMesh welded = std::move(mesh).value();
+  const std::size_t file_vertices = welded.vertices.size();
+  const std::vector<int> remap = WeldExactDuplicates(&welded);
+  if (!vertex_stiffness.empty()) {
+    if (vertex_stiffness.size() != file_vertices) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "vertex_stiffness has " + std::to_string(vertex_stiffness.size()) +
+                           " scores for " + std::to_string(file_vertices) + " vertices",
+                       "vertex_stiffness");
+    }
+    std::vector<float> welded_stiffness(welded.vertices.size(), -1.0f);
+    for (std::size_t i = 0; i < remap.size(); ++i) {
+      float& s = welded_stiffness[static_cast<std::size_t>(remap[i])];
+      if (s < 0.0f) s = vertex_stiffness[i];
+    }
+    vertex_stiffness = std::move(welded_stiffness);
+  }
+  if (welded.vertices.size() != file_vertices) {
+    shape["welded_vertices"] = file_vertices - welded.vertices.size();
+  }
+  return MakeMeshObject(std::move(welded), std::move(vertex_stiffness), spec.stiffness,
                         spec.density_kg_m3, "user", shape);
 }
 

@@ -22,6 +22,8 @@ struct UserObjectSpec {
 core::Result<UserObjectSpec> ParseUserObjectArg(const std::string& arg);
 
 /// Reads, validates and builds the object (category "user", shape {"file", "stiffness"...}).
+/// Vertices with exactly equal coordinates are welded first (triangle-soup exports), keeping
+/// the first occurrence's stiffness.
 /// Errors: kInvalidArgument naming "mesh_path"/"stiffness_path" when a file cannot be read,
 /// the decoder's error for a broken mesh file, MakeMeshObject's errors for an unusable mesh.
 core::Result<SimObject> LoadUserObject(const UserObjectSpec& spec);

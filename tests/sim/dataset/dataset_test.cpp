@@ -382,3 +382,25 @@ TEST(UserObjects, JoinTheSceneDraw) {
 
 }  // namespace
 }  // namespace softgrasp::sim
+
+namespace softgrasp::sim {
+namespace {
+
+// A real mesh exported as a triangle soup (Dex-Net bar clamp, ../shared/data): welded, it is a
+// closed solid and joins the catalogue as a user object.
+TEST(UserObjects, WeldsARealTriangleSoupIntoAClosedSolid) {
+  UserObjectSpec spec;
+  spec.mesh_path = std::string(SOFTGRASP_SHARED_DATA_DIR) + "/meshes/dexnet_bar_clamp.obj";
+  spec.stiffness = 0.8f;
+  auto object = LoadUserObject(spec);
+  ASSERT_TRUE(object.ok()) << object.error().message;
+  EXPECT_EQ(object.value().category, "user");
+  EXPECT_LT(object.value().mesh_o.vertices.size(), 1428u);
+  EXPECT_EQ(object.value().mesh_o.faces.size(), 476u);
+  EXPECT_EQ(object.value().shape["welded_vertices"].get<std::size_t>(),
+            1428u - object.value().mesh_o.vertices.size());
+  EXPECT_GT(object.value().mass_kg, 0.0);
+}
+
+}  // namespace
+}  // namespace softgrasp::sim
