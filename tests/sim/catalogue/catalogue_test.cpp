@@ -326,7 +326,7 @@ TEST(CatalogueSplit, ValidationShapesComeFromHeldOutBands) {
     const double band = (h.hi - h.lo) / 5;
     for (const ShapeSplit split : kSplits) {
       std::set<int> bands_seen;
-      for (std::uint64_t seed = 0; seed < 200; ++seed) {
+      for (std::uint64_t seed = 0; seed < 60; ++seed) {
         const SimObject o = Make(h.category, split, seed);
         const double v = o.shape.at(h.parameter).get<double>();
         ASSERT_GE(v, h.lo);
