@@ -225,6 +225,18 @@ describe('softgrasp page in chromium', () => {
     await context.close();
   });
 
+  it('says why the robot panel is off when the service has no robot tokens', async () => {
+    const info = await (await fetch(`${base}/v1/info`)).json();
+    assert.equal(info.robot.enabled, false); // this server runs without SOFTGRASP_ROBOT_TOKENS
+    const { context, page, errors } = await openPage();
+    assert.equal(await page.isVisible('#robot'), true);
+    assert.equal(await page.textContent('#robot-disabled'), `The robot endpoints are off: ${info.robot.reason}.`);
+    assert.equal(await page.isVisible('#robot-token'), false);
+    assert.equal(await page.isVisible('#robot-forward'), false);
+    assert.deepEqual(errors, []);
+    await context.close();
+  });
+
   it('is usable on a phone-sized screen, every control labelled', async () => {
     const { context, page, errors } = await openPage({ width: 390, height: 844 });
     const layout = await page.evaluate(() => ({

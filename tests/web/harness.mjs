@@ -15,6 +15,7 @@ export const paths = (() => {
   return {
     source,
     server: process.env.SOFTGRASP_SERVER || path.join(build, 'service', 'softgrasp-server'),
+    sim: process.env.SOFTGRASP_SIM || path.join(build, 'sim', 'softgrasp-sim'),
     webRoot: process.env.SOFTGRASP_WEB_ROOT || path.join(build, 'web'),
     artifacts: process.env.SOFTGRASP_ARTIFACT_DIR || path.join(build, 'tests', 'web', 'artifacts'),
     // CI clones the project next to shared/.
@@ -29,14 +30,15 @@ export function artifactPath(name) {
 }
 
 /** Fails early with what to do when something the tests need is missing. */
-export function checkPrerequisites() {
+export function checkPrerequisites({ sim = false, data = true } = {}) {
   const missing = [];
+  if (sim && !existsSync(paths.sim)) missing.push(`simulated robot ${paths.sim} (run scripts/build.sh)`);
   if (!existsSync(paths.server)) missing.push(`server ${paths.server} (run scripts/build.sh)`);
   if (!existsSync(path.join(paths.webRoot, 'index.html'))) {
     missing.push(`built page ${paths.webRoot}/index.html (run scripts/build.sh)`);
   }
   if (!existsSync(paths.chromium)) missing.push(`${paths.chromium} (run scripts/setup.sh)`);
-  if (!existsSync(paths.data)) missing.push(`data folder ${paths.data} (shared/ beside the project)`);
+  if (data && !existsSync(paths.data)) missing.push(`data folder ${paths.data} (shared/ beside the project)`);
   if (missing.length) throw new Error(`browser tests need: ${missing.join('; ')}`);
 }
 
@@ -47,23 +49,21 @@ export function playwright() {
 }
 
 /**
- * Starts softgrasp-server on 127.0.0.1, port 0, serving the built page. Resolves with its base
- * URL once it prints "listening on http://HOST:PORT".
+ * Starts a program that prints "listening on http://HOST:PORT" on stdout once it serves.
+ * `ready` resolves with that URL; `stop` sends SIGTERM (graceful), SIGKILL after 10 s.
  */
-export function startServer({ timeoutMs = 20_000 } = {}) {
-  const child = spawn(paths.server,
-    ['--host', '127.0.0.1', '--port', '0', '--workers', '2', '--web-root', paths.webRoot],
-    { stdio: ['ignore', 'pipe', 'pipe'] });
+function startListening(exe, args, { env = {}, what, timeoutMs = 20_000 } = {}) {
+  const child = spawn(exe, args, { stdio: ['ignore', 'pipe', 'pipe'], env: { ...process.env, ...env } });
   let log = '';
   child.stderr.on('data', (chunk) => { log = (log + chunk).slice(-20_000); });
   const ready = new Promise((resolve, reject) => {
     const timer = setTimeout(() => {
       child.kill('SIGKILL');
-      reject(new Error(`server did not start within ${timeoutMs} ms:\n${log}`));
+      reject(new Error(`${what} did not start within ${timeoutMs} ms:\n${log}`));
     }, timeoutMs);
     let out = '';
     child.stdout.on('data', (chunk) => {
-      out += chunk;
+      out = (out + chunk).slice(-20_000);
       const match = /listening on (http:\/\/\S+)/.exec(out);
       if (match) {
         clearTimeout(timer);
@@ -72,9 +72,10 @@ export function startServer({ timeoutMs = 20_000 } = {}) {
     });
     child.on('exit', (code, signal) => {
       clearTimeout(timer);
-      reject(new Error(`server exited (${code ?? signal}) before listening:\n${log}`));
+      reject(new Error(`${what} exited (${code ?? signal}) before listening:\n${log}`));
     });
   });
+  ready.catch(() => {}); // callers await it; a late rejection must not be "unhandled"
   const stop = () => new Promise((resolve) => {
     if (child.exitCode !== null || child.signalCode !== null) return resolve();
     const timer = setTimeout(() => child.kill('SIGKILL'), 10_000);
@@ -84,7 +85,43 @@ export function startServer({ timeoutMs = 20_000 } = {}) {
     });
     child.kill('SIGTERM'); // graceful: in-flight requests finish
   });
-  return { ready, stop, log: () => log };
+  return { ready, stop, log: () => log, pid: child.pid };
+}
+
+/**
+ * Starts softgrasp-server on 127.0.0.1, port 0, serving the built page. Resolves with its base
+ * URL once it prints "listening on http://HOST:PORT". `env` adds settings (SOFTGRASP_ROBOT_...).
+ */
+export function startServer({ timeoutMs = 20_000, env = {} } = {}) {
+  return startListening(paths.server,
+    ['--host', '127.0.0.1', '--port', '0', '--workers', '2', '--web-root', paths.webRoot],
+    { env, what: 'softgrasp-server', timeoutMs });
+}
+
+/**
+ * Cyclone DDS on loopback only: the 127.0.0.1 interface, no multicast, unicast discovery to this
+ * host, and a discovery tag so that parallel runs on the same domain do not see each other
+ * (scripts/run.sh, tests/netns/two_hosts_test.sh --loopback).
+ */
+export function loopbackDdsConfig(tag) {
+  return '<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface address="127.0.0.1"/>'
+    + '</Interfaces><AllowMulticast>false</AllowMulticast></General><Discovery>'
+    + `<Tag>${tag}</Tag><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>30</MaxAutoParticipantIndex>`
+    + '<Peers><Peer address="127.0.0.1"/></Peers><LeaseDuration>2 s</LeaseDuration></Discovery>'
+    + '</Domain></CycloneDDS>';
+}
+
+/**
+ * Starts the SIMULATED robot (softgrasp-sim robot, docs/sim-robot.md) with its scene views on
+ * 127.0.0.1 at a free port. Resolves with the views' base URL. Building the scene (a Bullet drop)
+ * takes a few seconds.
+ */
+export function startSimRobot({ seed, robotId, domain, ddsConfig, timeoutMs = 45_000 }) {
+  return startListening(paths.sim,
+    ['robot', '--scene-seed', String(seed), '--support', 'table', '--robot-id', robotId,
+      '--domain', String(domain), '--dds-config', ddsConfig, '--http-host', '127.0.0.1',
+      '--http-port', '0'],
+    { what: 'softgrasp-sim robot', timeoutMs });
 }
 
 /** Debian's chromium, headless, with nothing talking to the network on its own. */

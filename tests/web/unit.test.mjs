@@ -1,11 +1,16 @@
 // The page's pure modules under node: error messages from API bodies, file names from
-// Content-Disposition, the grasp geometry the canvas draws, the fractal request body.
+// Content-Disposition, the grasp geometry the canvas draws, the fractal request body, and the
+// robot panel's command body, states, result numbers and error messages.
 import assert from 'node:assert/strict';
 import { describe, it } from 'node:test';
 
 import { ApiError, describeError, fileNameFromDisposition, parseErrorBody } from '../../web/src/api.js';
 import { fractalBody } from '../../web/src/fractals.js';
 import { angleDegrees, graspShape, isDrawable } from '../../web/src/grasp_geometry.js';
+import {
+  commandUrl, describeRobotError, isFinalState, isValidCommandId, newCommandId, resultSummary,
+  robotCommandBody, stateSteps,
+} from '../../web/src/robot_model.js';
 
 describe('API errors', () => {
   it('shows the message and field of the error body', () => {
@@ -76,5 +81,90 @@ describe('fractal request body', () => {
     { seed: 42, maps: [2, 7], points: 10000, sigma: 0.05, alpha: 0.3, scale: { opening_mm: 50 }, format: 'obj' });
     assert.deepEqual(fractalBody({ mapsMin: 3, mapsMax: 3, format: 'stl_binary' }), { maps: 3, format: 'stl_binary' });
     assert.deepEqual(fractalBody({ mapsMax: 4, format: 'json' }), { maps: 4, format: 'json' });
+  });
+});
+
+describe('robot panel model', () => {
+  const grasp = {
+    rank: 1, score: 0.125, opening_m: 0.05, center_px: { u: 1, v: 2 },
+    pose: { frame: 'camera', position_m: [-0.1478, -0.0398, 0.5258], orientation_wxyz: [0.773, 0, 0, 0.634] },
+  };
+
+  it('makes fresh ids the service accepts', () => {
+    const a = newCommandId();
+    const b = newCommandId();
+    assert.match(a, /^web-[0-9a-f]{32}$/);
+    assert.notEqual(a, b);
+    assert.ok(isValidCommandId(a));
+    // Deterministic with a given source of bytes: each byte as two hex digits.
+    assert.equal(newCommandId((bytes) => bytes.fill(0xab)), `web-${'ab'.repeat(16)}`);
+    assert.ok(!isValidCommandId('has space'));
+    assert.ok(!isValidCommandId('x'.repeat(65)));
+    assert.ok(!isValidCommandId(''));
+  });
+
+  it('sends the grasp as /v1/grasps returned it, plus the id and the choices made', () => {
+    assert.deepEqual(robotCommandBody(grasp, 'web-1'), { ...grasp, id: 'web-1' });
+    assert.deepEqual(robotCommandBody(grasp, 'web-1', { robotId: 'arm-2', forceN: 4.5 }),
+      { ...grasp, id: 'web-1', robot_id: 'arm-2', force_n: 4.5 });
+    // Empty fields are left to the service's defaults.
+    assert.deepEqual(robotCommandBody(grasp, 'web-1', { robotId: '', forceN: undefined }), { ...grasp, id: 'web-1' });
+    assert.throws(() => robotCommandBody(null, 'web-1'), /no grasp selected/);
+    assert.throws(() => robotCommandBody(grasp, 'bad id'), /bad command id/);
+  });
+
+  it('follows the Location, else the route of the id', () => {
+    assert.equal(commandUrl('/v1/robot/grasps/web-1', 'web-1'), '/v1/robot/grasps/web-1');
+    assert.equal(commandUrl(null, 'web-1'), '/v1/robot/grasps/web-1');
+    // Only the service's own route: a Location elsewhere is not followed with the token.
+    assert.equal(commandUrl('https://elsewhere.example/x', 'web-1'), '/v1/robot/grasps/web-1');
+  });
+
+  it('knows the final states and shows the path a command took', () => {
+    for (const s of ['succeeded', 'failed', 'rejected', 'timed_out']) assert.ok(isFinalState(s), s);
+    for (const s of ['queued', 'sent', 'executing', 'result', undefined]) assert.ok(!isFinalState(s), s);
+    assert.deepEqual(stateSteps([]), ['sent', 'executing', 'result']);
+    assert.deepEqual(stateSteps(['sent', 'failed']), ['sent', 'executing', 'failed']);
+    assert.deepEqual(stateSteps(['queued', 'sent', 'executing', 'succeeded']),
+      ['queued', 'sent', 'executing', 'succeeded']);
+  });
+
+  it('turns the result into millimetres, percent and damage above 20 %', () => {
+    const crushed = resultSummary({
+      outcome: 'failed', reason: 'crushed: held object 3', robot_id: 'sim', contact_width_m: 0.03567,
+      grasped_width_m: 0.027, deformation_rate: (0.03567 - 0.027) / 0.03567, execution_s: 0.221,
+      round_trip_s: 0.227, late: false,
+    });
+    assert.equal(crushed.contactWidthMm.toFixed(2), '35.67');
+    assert.equal(crushed.graspedWidthMm.toFixed(2), '27.00');
+    assert.equal(crushed.deformationPercent.toFixed(1), '24.3');
+    assert.equal(crushed.damaged, true);
+    const held = resultSummary({ outcome: 'succeeded', contact_width_m: 0.04341, grasped_width_m: 0.04323,
+      deformation_rate: 0.2 });
+    assert.equal(held.damaged, false); // exactly 20 % is not above it
+    // Nothing touched: zeros from the robot mean no widths and no deformation, not 0 mm.
+    const empty = resultSummary({ outcome: 'failed', reason: 'empty: ...', contact_width_m: 0,
+      grasped_width_m: 0, deformation_rate: 0 });
+    assert.deepEqual([empty.contactWidthMm, empty.graspedWidthMm, empty.deformationPercent, empty.damaged],
+      [null, null, null, null]);
+    assert.equal(resultSummary(undefined), null);
+    assert.equal(resultSummary({ outcome: 'succeeded', late: true }).late, true);
+  });
+
+  it('says what 401, 403, 409, 422 and 503 mean, with the API\'s own message', () => {
+    const body = (code, message, field) => JSON.stringify({ error: { code, message, field } });
+    assert.equal(describeRobotError(parseErrorBody(401, '', body('unauthorized', "this route needs 'Authorization: Bearer <token>' (a robot token)", 'Authorization'))),
+      "The robot routes need a token: this route needs 'Authorization: Bearer <token>' (a robot token) (field: Authorization)");
+    assert.equal(describeRobotError(parseErrorBody(403, '', body('forbidden', 'the token is not accepted', 'Authorization'))),
+      'Token refused: the token is not accepted (field: Authorization)');
+    assert.equal(describeRobotError(parseErrorBody(409, '', body('conflict', 'id web-1 was used for another grasp', 'id'))),
+      'This command id was already used for another grasp: id web-1 was used for another grasp (field: id)');
+    assert.equal(describeRobotError(parseErrorBody(422, '', body('unprocessable', 'outside the workspace', 'pose.position_m[2]'))),
+      'The service will not send this grasp: outside the workspace (field: pose.position_m[2])');
+    const busy = parseErrorBody(503, '', body('unavailable', 'no robot is alive'));
+    busy.retryAfterS = 2;
+    assert.equal(describeRobotError(busy), 'No robot can take it now: no robot is alive (try again in 2 s)');
+    assert.equal(describeRobotError(parseErrorBody(500, '', body('internal', 'journal full'))), 'journal full');
+    assert.match(describeRobotError(new TypeError('Failed to fetch')), /^Could not reach the service/);
   });
 });

@@ -58,7 +58,11 @@ export async function call(url, init = {}, timeoutMs = DEFAULT_TIMEOUT_MS) {
   if (!response.ok) {
     const text = await response.text().catch(() => '');
     clearTimeout(timer);
-    throw parseErrorBody(response.status, response.statusText, text);
+    const error = parseErrorBody(response.status, response.statusText, text);
+    // 503 from the robot routes says when a robot may be back (docs/robot-api.md).
+    const retryAfterS = Number(response.headers.get('Retry-After'));
+    if (Number.isFinite(retryAfterS) && retryAfterS > 0) error.retryAfterS = retryAfterS;
+    throw error;
   }
   clearTimeout(timer);
   return response;

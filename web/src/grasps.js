@@ -11,6 +11,9 @@ import {
   clearError, fileSizeText, fixed, saveBlob, setDownload, showError, whileBusy,
 } from './ui.js';
 
+/** Sent on `document` when the grasp picked in the table changes: detail {grasp, index, source}. */
+export const GRASP_SELECTED_EVENT = 'softgrasp:grasp-selected';
+
 const BEST_COLOUR = 'rgb(0, 255, 0)'; // as the service's overlay
 const OTHER_COLOUR = 'rgb(255, 255, 255)';
 const SELECTED_COLOUR = 'rgb(255, 0, 255)';
@@ -162,14 +165,22 @@ export function mountGraspsPanel(root, info) {
   const tbody = root.querySelector('#grasp-table tbody');
   applyDefaults(root, info);
 
-  const state = { grasps: [], bitmap: null, selected: 0 };
+  const state = { grasps: [], bitmap: null, selected: 0, source: '' };
   const redraw = () => {
     if (state.bitmap) drawPicture(canvas, state.bitmap, state.grasps, state.selected, showGrasps.checked);
+  };
+  // Other panels (the robot's) follow the selection through a document event, not our state.
+  const announce = () => {
+    const grasp = state.grasps[state.selected] || null;
+    document.dispatchEvent(new CustomEvent(GRASP_SELECTED_EVENT, {
+      detail: { grasp, index: state.selected, source: state.source },
+    }));
   };
   const select = (i) => {
     state.selected = i;
     for (const row of tbody.rows) row.classList.toggle('selected', row.rowIndex - 1 === i);
     redraw();
+    announce();
   };
   showGrasps.addEventListener('change', redraw);
 
@@ -219,7 +230,9 @@ export function mountGraspsPanel(root, info) {
         const result = JSON.parse(json);
         const bitmap = await createImageBitmap(depthPng);
         if (state.bitmap) state.bitmap.close();
-        Object.assign(state, { grasps: result.grasps, bitmap, selected: result.grasps.length ? 0 : -1 });
+        Object.assign(state, {
+          grasps: result.grasps, bitmap, selected: result.grasps.length ? 0 : -1, source: depthFile.name,
+        });
         const stem = depthFile.name.replace(/\.[^.]*$/, '') || 'depth';
         setDownload(root.querySelector('#download-json'),
           new Blob([json], { type: 'application/json' }), `${stem}-grasps.json`);
@@ -229,6 +242,7 @@ export function mountGraspsPanel(root, info) {
         fillTable(tbody, state.grasps, state.selected, select);
         results.hidden = false;
         redraw();
+        announce();
         root.dataset.state = 'done'; // for tests and scripts: the results are on screen
       });
     } catch (error) {

@@ -1,16 +1,18 @@
 // Entry point: reads GET /v1/info once, then mounts each panel of the page.
 //
 // A panel is a <section data-panel="NAME"> in index.html plus a mount function here. The
-// stiffness-map and robot panels join this table when their endpoints exist (docs/web.md).
+// stiffness-map panel joins this table when its endpoint exists (docs/web.md).
 
 import './style.css';
 import { describeError, fetchInfo } from './api.js';
 import { mountFractalsPanel } from './fractals.js';
 import { mountGraspsPanel } from './grasps.js';
+import { mountRobotPanel } from './robot.js';
 
 const PANELS = {
   grasps: mountGraspsPanel,
   fractals: mountFractalsPanel,
+  robot: mountRobotPanel,
 };
 
 // A file dropped next to a drop zone must not make the browser leave the page to open it.
