@@ -1,8 +1,12 @@
 #include "sim/dataset/scene_gen.h"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <memory>
 #include <random>
+#include <stdexcept>
+#include <type_traits>
 
 namespace softgrasp::sim {
 namespace {
@@ -67,6 +71,17 @@ std::optional<core::Error> ValidateSceneSpec(const SceneSpec& spec) {
   }
   if (spec.fractal_probability > 0.0) {
     if (auto invalid = mesh::ValidateFractalParams(spec.fractal)) return invalid;
+  }
+  const core::Camera& cam = spec.render.camera;
+  const bool camera_ok = cam.width >= 1 && cam.width <= 8192 && cam.height >= 1 &&
+                         cam.height <= 8192 && std::isfinite(cam.fx) && cam.fx > 0 &&
+                         std::isfinite(cam.fy) && cam.fy > 0 && std::isfinite(cam.cx) &&
+                         std::isfinite(cam.cy) &&
+                         spec.render.world_from_camera.matrix().allFinite();
+  if (!camera_ok) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "camera: width and height in 1..8192, fx and fy > 0, finite cx, cy and pose",
+                     "camera");
   }
   for (const auto& user : spec.user_objects) {
     if (!user) return MakeError(ErrorCode::kInvalidArgument, "null user object", "user_objects");
@@ -157,6 +172,7 @@ json SceneManifest(const SceneSpec& spec, const GeneratedScene& generated) {
         {"edge_dropout_probability", noise.edge_dropout_probability},
         {"sigma_base_m", noise.sigma_base_m},
         {"sigma_quadratic_per_m", noise.sigma_quadratic_per_m}}},
+      {"spec", SceneSpecToJson(spec)},
       {"support", SupportToJson(generated.scene.support)},
       {"objects", objects},
       {"drop",
@@ -164,6 +180,162 @@ json SceneManifest(const SceneSpec& spec, const GeneratedScene& generated) {
         {"settled", generated.drop.settled},
         {"lost_instance_ids", generated.drop.lost_instance_ids}}},
   };
+}
+
+json SceneSpecToJson(const SceneSpec& spec) {
+  const core::Camera& cam = spec.render.camera;
+  const Eigen::Isometry3d& pose = spec.render.world_from_camera;
+  const Eigen::Vector3d t = pose.translation();
+  const Eigen::Quaterniond q(pose.rotation());
+  const NoiseModel& noise = spec.render.noise;
+  const mesh::FractalParams& f = spec.fractal;
+  return {
+      {"objects", {spec.min_objects, spec.max_objects}},
+      {"split", ShapeSplitName(spec.split)},
+      {"support", SupportToJson(spec.support)},
+      {"categories", spec.categories},
+      {"user_objects", spec.user_objects.size()},
+      {"fractal_probability", spec.fractal_probability},
+      {"fractal_stiffness", spec.fractal_stiffness ? json(*spec.fractal_stiffness) : json(nullptr)},
+      {"fractal_density_kg_m3", spec.fractal_density_kg_m3},
+      {"fractal",
+       {{"maps", {f.min_maps, f.max_maps}},
+        {"points", f.num_points},
+        {"burn_in", f.burn_in},
+        {"sigma", f.sigma},
+        {"alpha", f.alpha},
+        {"gripper_opening_m", f.gripper_opening_m},
+        {"fit_fraction", f.fit_fraction},
+        {"max_attempts", f.max_attempts},
+        {"min_piece_volume_fraction", f.min_piece_volume_fraction},
+        {"max_alpha_raises", f.max_alpha_raises},
+        {"merge_fraction", f.merge_fraction}}},
+      {"drop",
+       {{"margin_m", spec.drop.margin_m},
+        {"drop_height_min_m", spec.drop.drop_height_min_m},
+        {"spawn_gap_m", spec.drop.spawn_gap_m},
+        {"time_step_s", spec.drop.time_step_s},
+        {"max_steps", spec.drop.max_steps},
+        {"friction", spec.drop.friction},
+        {"restitution", spec.drop.restitution},
+        {"sleep_linear_m_s", spec.drop.sleep_linear_m_s},
+        {"sleep_angular_rad_s", spec.drop.sleep_angular_rad_s}}},
+      {"camera",
+       {{"fx", cam.fx},
+        {"fy", cam.fy},
+        {"cx", cam.cx},
+        {"cy", cam.cy},
+        {"width", cam.width},
+        {"height", cam.height},
+        {"position_m", {t.x(), t.y(), t.z()}},
+        {"quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}}},
+      {"noise",
+       {{"enabled", noise.enabled},
+        {"grazing_angle_deg", noise.grazing_angle_deg},
+        {"edge_jump_m", noise.edge_jump_m},
+        {"edge_dropout_probability", noise.edge_dropout_probability},
+        {"sigma_base_m", noise.sigma_base_m},
+        {"sigma_quadratic_per_m", noise.sigma_quadratic_per_m}}},
+  };
+}
+
+core::Result<SceneSpec> SceneSpecFromJson(const json& j) {
+  // Reads j[a][b]... into `out`; json's own type errors become a clear kInvalidArgument.
+  std::string at;
+  try {
+    auto get = [&](const json& parent, const char* key, auto* out) {
+      at = key;
+      *out = parent.at(key).get<std::remove_pointer_t<decltype(out)>>();
+    };
+    if (j.at("user_objects").get<std::size_t>() > 0) {
+      return MakeError(ErrorCode::kUnprocessable,
+                       "the scene drew from user meshes, which a manifest does not hold",
+                       "user_objects");
+    }
+    SceneSpec spec;
+    std::array<int, 2> objects{};
+    get(j, "objects", &objects);
+    spec.min_objects = objects[0];
+    spec.max_objects = objects[1];
+    std::string split;
+    get(j, "split", &split);
+    if (split != "train" && split != "val")
+      throw std::invalid_argument("split must be train or val");
+    spec.split = split == "train" ? ShapeSplit::kTrain : ShapeSplit::kVal;
+    const json& support = j.at("support");
+    std::string kind;
+    get(support, "kind", &kind);
+    if (kind != "table" && kind != "bin") throw std::invalid_argument("kind must be table or bin");
+    spec.support.kind = kind == "table" ? Support::Kind::kTable : Support::Kind::kBin;
+    std::array<double, 2> inner{};
+    get(support, "inner_size_m", &inner);
+    spec.support.inner_size_x_m = inner[0];
+    spec.support.inner_size_y_m = inner[1];
+    get(support, "wall_height_m", &spec.support.wall_height_m);
+    get(support, "wall_thickness_m", &spec.support.wall_thickness_m);
+    get(support, "thickness_m", &spec.support.thickness_m);
+    get(support, "ground_size_m", &spec.support.ground_size_m);
+    get(j, "categories", &spec.categories);
+    get(j, "fractal_probability", &spec.fractal_probability);
+    at = "fractal_stiffness";
+    if (!j.at("fractal_stiffness").is_null())
+      spec.fractal_stiffness = j.at("fractal_stiffness").get<float>();
+    get(j, "fractal_density_kg_m3", &spec.fractal_density_kg_m3);
+    const json& f = j.at("fractal");
+    std::array<int, 2> maps{};
+    get(f, "maps", &maps);
+    spec.fractal.min_maps = maps[0];
+    spec.fractal.max_maps = maps[1];
+    get(f, "points", &spec.fractal.num_points);
+    get(f, "burn_in", &spec.fractal.burn_in);
+    get(f, "sigma", &spec.fractal.sigma);
+    get(f, "alpha", &spec.fractal.alpha);
+    get(f, "gripper_opening_m", &spec.fractal.gripper_opening_m);
+    get(f, "fit_fraction", &spec.fractal.fit_fraction);
+    get(f, "max_attempts", &spec.fractal.max_attempts);
+    get(f, "min_piece_volume_fraction", &spec.fractal.min_piece_volume_fraction);
+    get(f, "max_alpha_raises", &spec.fractal.max_alpha_raises);
+    get(f, "merge_fraction", &spec.fractal.merge_fraction);
+    const json& d = j.at("drop");
+    get(d, "margin_m", &spec.drop.margin_m);
+    get(d, "drop_height_min_m", &spec.drop.drop_height_min_m);
+    get(d, "spawn_gap_m", &spec.drop.spawn_gap_m);
+    get(d, "time_step_s", &spec.drop.time_step_s);
+    get(d, "max_steps", &spec.drop.max_steps);
+    get(d, "friction", &spec.drop.friction);
+    get(d, "restitution", &spec.drop.restitution);
+    get(d, "sleep_linear_m_s", &spec.drop.sleep_linear_m_s);
+    get(d, "sleep_angular_rad_s", &spec.drop.sleep_angular_rad_s);
+    const json& c = j.at("camera");
+    get(c, "fx", &spec.render.camera.fx);
+    get(c, "fy", &spec.render.camera.fy);
+    get(c, "cx", &spec.render.camera.cx);
+    get(c, "cy", &spec.render.camera.cy);
+    get(c, "width", &spec.render.camera.width);
+    get(c, "height", &spec.render.camera.height);
+    std::array<double, 3> position{};
+    std::array<double, 4> xyzw{};
+    get(c, "position_m", &position);
+    get(c, "quaternion_xyzw", &xyzw);
+    const Eigen::Quaterniond q(xyzw[3], xyzw[0], xyzw[1], xyzw[2]);
+    if (!(std::abs(q.norm() - 1.0) < 1e-6))
+      throw std::invalid_argument("quaternion_xyzw must be a unit quaternion");
+    spec.render.world_from_camera = Eigen::Isometry3d::Identity();
+    spec.render.world_from_camera.linear() = q.toRotationMatrix();
+    spec.render.world_from_camera.translation() =
+        Eigen::Vector3d(position[0], position[1], position[2]);
+    const json& n = j.at("noise");
+    get(n, "enabled", &spec.render.noise.enabled);
+    get(n, "grazing_angle_deg", &spec.render.noise.grazing_angle_deg);
+    get(n, "edge_jump_m", &spec.render.noise.edge_jump_m);
+    get(n, "edge_dropout_probability", &spec.render.noise.edge_dropout_probability);
+    get(n, "sigma_base_m", &spec.render.noise.sigma_base_m);
+    get(n, "sigma_quadratic_per_m", &spec.render.noise.sigma_quadratic_per_m);
+    if (auto invalid = ValidateSceneSpec(spec)) return *invalid;
+    return spec;
+  } catch (const std::exception& e) {
+    return MakeError(ErrorCode::kInvalidArgument, "scene spec: '" + at + "': " + e.what(), at);
+  }
 }
 
 }  // namespace softgrasp::sim

@@ -56,7 +56,15 @@ std::uint64_t SceneSeed(std::uint64_t dataset_seed, int index, ShapeSplit split)
 core::Result<GeneratedScene> GenerateScene(const SceneSpec& spec, std::uint64_t scene_seed);
 
 /// The scene's manifest: seed, split, camera (intrinsics and world_from_camera), support,
-/// objects (category, shape parameters, mass, pose), noise model and the drop report.
+/// objects (category, shape parameters, mass, pose), noise model, the drop report, and the whole
+/// spec ("spec", SceneSpecToJson) so the scene can be rebuilt exactly from the manifest.
 nlohmann::json SceneManifest(const SceneSpec& spec, const GeneratedScene& generated);
+
+/// Everything GenerateScene reads from the spec, as JSON (user objects only by count).
+nlohmann::json SceneSpecToJson(const SceneSpec& spec);
+
+/// The inverse of SceneSpecToJson. Errors: kInvalidArgument naming the missing or malformed
+/// key; kUnprocessable when the spec drew from user objects (their meshes are not in the JSON).
+core::Result<SceneSpec> SceneSpecFromJson(const nlohmann::json& json);
 
 }  // namespace softgrasp::sim

@@ -6,8 +6,10 @@
 #include <exception>
 #include <fstream>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "sim/dataset/scene_gen.h"
 #include "sim/robot/robot_http.h"
 #include "sim/robot/robot_loop.h"
 #include "sim/robot/sim_robot.h"
@@ -16,7 +18,8 @@ namespace softgrasp::sim {
 namespace {
 
 constexpr const char* kUsage =
-    "usage: softgrasp-sim robot [--scene-seed S] [--objects MIN-MAX] [--support bin|table]\n"
+    "usage: softgrasp-sim robot [--scene-seed S | --scene MANIFEST] [--objects MIN-MAX]\n"
+    "                           [--support bin|table]\n"
     "                           [--noise on|off] [--robot-id ID] [--domain N]\n"
     "                           [--dds-config XML|file://PATH] [--http-host H] [--http-port P]\n"
     "  A SIMULATED robot (docs/sim-robot.md): joins the DDS bus as ID (default sim-robot) on\n"
@@ -24,7 +27,9 @@ constexpr const char* kUsage =
     "  model in a generated scene (seed S, default 1; objects 3-8, bin, noise on), publishes the\n"
     "  results and removes what it picks. Serves the camera's view on http://H:P (default\n"
     "  127.0.0.1:8081; port 0 picks one): GET /depth.npy /depth.png /camera.intr /scene.json\n"
-    "  /stiffness.png /labels.png, POST /reset. --dds-config takes what CYCLONEDDS_URI takes\n"
+    "  /stiffness.png /labels.png, POST /reset. --scene rebuilds the scene of a manifest\n"
+    "  (scene_NNNNNN.json) written by `softgrasp-sim generate`; flags after it still apply.\n"
+    "  --dds-config takes what CYCLONEDDS_URI takes\n"
     "  (default: CYCLONEDDS_URI, else Cyclone's defaults). SIGINT/SIGTERM stop it.\n";
 
 bool ParseInt(const std::string& text, long long* out) {
@@ -37,6 +42,25 @@ bool ParseRange(const std::string& value, long long* lo, long long* hi) {
   const auto dash = value.find('-');
   if (dash == std::string::npos) return ParseInt(value, lo) && (*hi = *lo, true);
   return ParseInt(value.substr(0, dash), lo) && ParseInt(value.substr(dash + 1), hi);
+}
+
+// --scene FILE: the scene of a `softgrasp-sim generate` manifest, rebuilt from its spec and seed.
+std::string LoadSceneManifest(const std::string& path, RobotCommandLine* out) {
+  std::ifstream in(path);
+  if (!in) return "--scene: cannot read " + path;
+  std::stringstream text;
+  text << in.rdbuf();
+  const nlohmann::json manifest =
+      nlohmann::json::parse(text.str(), nullptr, /*allow_exceptions=*/false);
+  if (!manifest.is_object() || !manifest.contains("spec") || !manifest.contains("scene_seed") ||
+      !manifest["scene_seed"].is_number_unsigned()) {
+    return "--scene: " + path + " is not a scene manifest of softgrasp-sim generate";
+  }
+  auto spec = SceneSpecFromJson(manifest["spec"]);
+  if (!spec.ok()) return "--scene: " + path + ": " + spec.error().message;
+  out->spec = std::move(spec).value();
+  out->scene_seed = manifest["scene_seed"].get<std::uint64_t>();
+  return "";
 }
 
 }  // namespace
@@ -55,6 +79,9 @@ std::string ParseRobotArgs(const std::vector<std::string>& args, RobotCommandLin
     long long m = 0;
     if (flag == "--scene-seed" && ParseInt(value, &n) && n >= 0) {
       out->scene_seed = static_cast<std::uint64_t>(n);
+    } else if (flag == "--scene") {
+      if (const std::string problem = LoadSceneManifest(value, out); !problem.empty())
+        return problem;
     } else if (flag == "--objects") {
       if (!ParseRange(value, &n, &m) || n < 1 || m > 8 || n > m)
         return "--objects must be N or MIN-MAX within 1-8";

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "sim/dataset/user_objects.h"
+#include "sim/render/render.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -400,6 +401,66 @@ TEST(UserObjects, WeldsARealTriangleSoupIntoAClosedSolid) {
   EXPECT_EQ(object.value().shape["welded_vertices"].get<std::size_t>(),
             1428u - object.value().mesh_o.vertices.size());
   EXPECT_GT(object.value().mass_kg, 0.0);
+}
+
+}  // namespace
+}  // namespace softgrasp::sim
+
+namespace softgrasp::sim {
+namespace {
+
+bool SameBytes(const cv::Mat& a, const cv::Mat& b) {
+  return a.size() == b.size() && a.type() == b.type() &&
+         std::memcmp(a.data, b.data, a.total() * a.elemSize()) == 0;
+}
+
+// A manifest holds the whole spec: the scene it describes can be rebuilt exactly.
+TEST(SceneSpecJson, AManifestRebuildsItsSceneExactly) {
+  SceneSpec spec;
+  spec.min_objects = 2;
+  spec.max_objects = 4;
+  spec.split = ShapeSplit::kVal;
+  spec.support.kind = Support::Kind::kTable;
+  spec.render.noise.enabled = true;
+  spec.render.world_from_camera = OverheadCameraPose(0.6);
+  spec.fractal_probability = 0.3;
+  spec.fractal_stiffness = 0.4f;
+  spec.fractal.num_points = 3000;
+  auto first = GenerateScene(spec, 77);
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  const nlohmann::json manifest =
+      nlohmann::json::parse(SceneManifest(spec, first.value()).dump());  // through text
+  auto parsed = SceneSpecFromJson(manifest["spec"]);
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  auto again = GenerateScene(parsed.value(), manifest["scene_seed"].get<std::uint64_t>());
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(SameBytes(first.value().views.depth.depth_m, again.value().views.depth.depth_m));
+  EXPECT_TRUE(SameBytes(first.value().views.labels, again.value().views.labels));
+  EXPECT_EQ(SceneSpecToJson(parsed.value()), manifest["spec"]);
+}
+
+TEST(SceneSpecJson, BrokenSpecsNameTheKey) {
+  const nlohmann::json good = SceneSpecToJson(SceneSpec{});
+  ASSERT_TRUE(SceneSpecFromJson(good).ok());
+  nlohmann::json j = good;
+  j.erase("noise");
+  EXPECT_EQ(SceneSpecFromJson(j).error().code, core::ErrorCode::kInvalidArgument);
+  j = good;
+  j["objects"] = "three";
+  EXPECT_EQ(SceneSpecFromJson(j).error().field, "objects");
+  j = good;
+  j["split"] = "test";
+  EXPECT_EQ(SceneSpecFromJson(j).error().field, "split");
+  j = good;
+  j["camera"]["quaternion_xyzw"] = {0, 0, 0, 2};
+  EXPECT_EQ(SceneSpecFromJson(j).error().code, core::ErrorCode::kInvalidArgument);
+  j = good;
+  j["camera"]["width"] = 0;
+  EXPECT_EQ(SceneSpecFromJson(j).error().field, "camera");
+  j = good;
+  j["user_objects"] = 2;
+  EXPECT_EQ(SceneSpecFromJson(j).error().code, core::ErrorCode::kUnprocessable);
+  EXPECT_FALSE(SceneSpecFromJson(nlohmann::json::array()).ok());
 }
 
 }  // namespace

@@ -1,0 +1,50 @@
+#include "sim/robot/robot_cli.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "sim/dataset/dataset.h"
+
+namespace softgrasp::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(RobotCli, SceneFlagRebuildsTheSpecAndSeedOfAManifest) {
+  DatasetParams params;
+  params.scenes = 1;
+  params.seed = 5;
+  params.spec.min_objects = 2;
+  params.spec.max_objects = 3;
+  params.spec.support.kind = Support::Kind::kTable;
+  params.out_dir = fs::path(::testing::TempDir()) / "softgrasp_robot_cli";
+  fs::remove_all(params.out_dir);
+  ASSERT_TRUE(GenerateDataset(params).ok());
+  const fs::path manifest = params.out_dir / "shard_0000" / "scene_000000.json";
+
+  RobotCommandLine cli;
+  ASSERT_EQ(ParseRobotArgs({"--scene", manifest.string(), "--robot-id", "r2"}, &cli), "");
+  EXPECT_EQ(cli.scene_seed, SceneSeed(5, 0, ShapeSplit::kTrain));
+  EXPECT_EQ(cli.spec.support.kind, Support::Kind::kTable);
+  EXPECT_EQ(cli.spec.max_objects, 3);
+  EXPECT_EQ(SceneSpecToJson(cli.spec), SceneSpecToJson(params.spec));
+  EXPECT_EQ(cli.robot_id, "r2");
+}
+
+TEST(RobotCli, BadSceneFilesAreClearErrors) {
+  RobotCommandLine cli;
+  EXPECT_NE(ParseRobotArgs({"--scene", "/nonexistent/scene.json"}, &cli).find("cannot read"),
+            std::string::npos);
+  const fs::path junk = fs::path(::testing::TempDir()) / "softgrasp_not_a_manifest.json";
+  std::ofstream(junk) << R"({"objects": []})";
+  EXPECT_NE(ParseRobotArgs({"--scene", junk.string()}, &cli).find("not a scene manifest"),
+            std::string::npos);
+  std::ofstream(junk) << R"({"scene_seed": 3, "spec": {"objects": [1, 2]}})";
+  EXPECT_NE(ParseRobotArgs({"--scene", junk.string()}, &cli).find("scene spec"), std::string::npos);
+  EXPECT_NE(ParseRobotArgs({"--scene"}, &cli), "");
+}
+
+}  // namespace
+}  // namespace softgrasp::sim
