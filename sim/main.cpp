@@ -2,11 +2,14 @@
 // `fractals` (batches of fractal training meshes) and `robot` (a simulated robot on the DDS bus).
 // Parsing only; the work is in the libraries.
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "service/io/depth_codec.h"
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/user_objects.h"
 #include "sim/fractal_batch.h"
@@ -17,6 +20,7 @@ namespace {
 
 using softgrasp::core::Result;
 namespace mesh = softgrasp::mesh;
+namespace io = softgrasp::io;
 namespace sim = softgrasp::sim;
 
 constexpr const char* kUsage =
@@ -24,13 +28,16 @@ constexpr const char* kUsage =
     "                              [--split train|val] [--support bin|table] [--noise on|off]\n"
     "                              [--fractals P] [--fractal-stiffness K] [--shard-size N]\n"
     "                              [--user-mesh PATH[:K|:STIFFNESS.json]]...\n"
+    "                              [--camera-height M] [--intrinsics FILE.intr]\n"
     "  Simulated scenes (catalogue objects dropped with Bullet, rendered with Embree): 16-bit\n"
     "  depth (mm), 8-bit stiffness and deformability, 16-bit instance labels and one JSON\n"
     "  manifest per scene, in shards, plus index.json (docs/simulator.md). Defaults: objects\n"
     "  3-8, split train, support bin, noise on, fractals 0 (probability that an object is a\n"
     "  fractal mesh), fractal stiffness drawn per object unless K (0.1-1) is given. Each\n"
     "  --user-mesh (OBJ/PLY/STL in metres; constant stiffness K, default 0.5, or a JSON file\n"
-    "  {\"vertex_stiffness\": [...]}) joins the draw beside the catalogue categories.\n"
+    "  {\"vertex_stiffness\": [...]}) joins the draw beside the catalogue categories. The\n"
+    "  camera looks straight down from M metres (default 0.55) with SR305-like intrinsics\n"
+    "  (640x480) unless a GQ-CNN style .intr file gives others.\n"
     "\n"
     "usage: softgrasp-sim fractals --count N --seed S --out DIR [--alpha A] [--sigma S]\n"
     "                              [--points P] [--maps MIN-MAX] [--format F]\n"
@@ -96,6 +103,18 @@ std::string ParseGenerateArgs(const std::vector<std::string>& args, sim::Dataset
       if (!object.ok()) return "--user-mesh " + value + ": " + object.error().message;
       params->spec.user_objects.push_back(
           std::make_shared<const sim::SimObject>(std::move(object).value()));
+    } else if (flag == "--camera-height" && ParseDouble(value, &x) && x > 0.05 && x <= 5.0) {
+      params->spec.render.world_from_camera = sim::OverheadCameraPose(x);
+    } else if (flag == "--intrinsics") {
+      std::ifstream in(value);
+      std::stringstream text;
+      text << in.rdbuf();
+      auto camera = io::ParseIntrinsicsJson(text.str());
+      if (!in || !camera.ok()) {
+        return "--intrinsics " + value + ": " +
+               (in ? camera.error().message : "cannot read the file");
+      }
+      params->spec.render.camera = camera.value();
     } else if (flag == "--shard-size" && ParseInt(value, &n) && n >= 1 && n <= 100000) {
       params->shard_size = static_cast<int>(n);
     } else if (flag == "--out") {

@@ -465,3 +465,38 @@ TEST(SceneSpecJson, BrokenSpecsNameTheKey) {
 
 }  // namespace
 }  // namespace softgrasp::sim
+
+namespace softgrasp::sim {
+namespace {
+
+TEST(SimCli, CameraHeightAndIntrinsicsAreConfigurable) {
+  const std::filesystem::path out =
+      std::filesystem::path(::testing::TempDir()) / "softgrasp_cli_camera";
+  std::filesystem::remove_all(out);
+  const std::string exe = SOFTGRASP_SIM_EXE;
+  const std::string intr =
+      std::string(SOFTGRASP_SHARED_DATA_DIR) + "/gqcnn/primesense/primesense.intr";
+  const std::string args =
+      " generate --scenes 1 --seed 3 --objects 1 --noise off --camera-height 0.7"
+      " --intrinsics " +
+      intr + " --out " + out.string();
+  ASSERT_EQ(std::system((exe + args + " > /dev/null").c_str()), 0);
+  std::ifstream in(out / "shard_0000" / "scene_000000.json");
+  const nlohmann::json manifest = nlohmann::json::parse(in);
+  EXPECT_DOUBLE_EQ(manifest["camera"]["fx"].get<double>(), 525.0);
+  EXPECT_DOUBLE_EQ(manifest["camera"]["world_from_camera"]["position_m"][2].get<double>(), 0.7);
+  // The image corner sees the table the bin stands on: 0.7 m down to the bin floor (z = 0) plus
+  // the 20 mm floor thickness.
+  const cv::Mat depth =
+      cv::imread((out / "shard_0000" / "scene_000000_depth.png").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(depth.at<std::uint16_t>(0, 0), 720);
+  for (const char* bad :
+       {" --camera-height 0", " --intrinsics /nonexistent.intr", " --intrinsics /etc/hostname"}) {
+    const int status = std::system(
+        (exe + " generate --scenes 1 --out " + out.string() + bad + " > /dev/null 2>&1").c_str());
+    EXPECT_EQ(WEXITSTATUS(status), 2) << bad;
+  }
+}
+
+}  // namespace
+}  // namespace softgrasp::sim
