@@ -2,6 +2,7 @@
 /// Two-finger gripper geometry and the 4-DoF grasps the planners return.
 
 #include <array>
+#include <limits>
 #include <vector>
 
 namespace softgrasp::core {
@@ -34,6 +35,9 @@ struct Grasp {
   /// Orientation of the gripper frame G in C as a unit quaternion (w, x, y, z). G's z axis is the
   /// approach direction (= camera +z), G's x axis is the closing axis.
   std::array<double, 4> q_CG_wxyz{1, 0, 0, 0};
+  /// Mean stiffness score in [0, 1] of the contact surface inside the closing region (eq. 3.14
+  /// on the stiffness map used); NaN when no stiffness map was involved (classic FGE).
+  double mean_stiffness = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace softgrasp::core

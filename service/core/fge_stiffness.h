@@ -1,0 +1,40 @@
+#pragma once
+/// Stiffness-aware FGE (thesis eq. 3.6-3.10 and its clutter variant): among the FGE candidates
+/// (contact, no finger/palm collision, no slip, no seam), prefer closing regions on hard surfaces.
+/// See docs/stiffness.md, "Stiffness-aware FGE".
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "service/core/depth.h"
+#include "service/core/fge.h"
+#include "service/core/grasp.h"
+#include "service/core/preprocess.h"
+
+namespace softgrasp::core {
+
+struct StiffnessFgeParams {
+  FgeParams fge;  ///< angles, slices, slip/seam rules, top_k and NMS as for classic FGE
+  /// Ranking key = mean stiffness + centre_weight * graspability: stiffness comes in 0.1 steps,
+  /// so among equally hard regions the more central (FGE's preference) wins. 0 = pure eq. 3.10.
+  double centre_weight = 0.05;
+  /// Candidate pixels are evaluated on a grid of this step (image pixels), 1 = every pixel.
+  int candidate_step_px = 2;
+};
+
+/// Ranked grasps, best first, each with `mean_stiffness` = mean of `stiffness_map` over the
+/// contact surface I_t inside its closing region T_t (A_st / A_t). `score` stays FGE's
+/// graspability. `stiffness_map`: the scene's size, values in [0, 1] (e.g.
+/// models::StiffnessModel::Predict). Throws std::invalid_argument like DetectGraspsFge, and when
+/// the map's size differs from the scene's or params are out of range (centre_weight >= 0,
+/// 1 <= candidate_step_px <= 16).
+std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
+                                         const cv::Mat1f& stiffness_map, const Gripper& gripper,
+                                         const StiffnessFgeParams& params = {});
+
+/// Mean of `stiffness_map` over the pixels of `grasp`'s closing region (|a| <= opening/2,
+/// |b| <= finger width/2, pixel-centre rule) whose height is above the grasp's contact height;
+/// NaN when there is none. Used to fill `mean_stiffness` of classic FGE grasps.
+double ContactMeanStiffness(const Scene& scene, const cv::Mat1f& stiffness_map, const Grasp& grasp);
+
+}  // namespace softgrasp::core

@@ -1,0 +1,352 @@
+#include "tools/train/evaluate.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "service/core/fge.h"
+#include "service/core/fge_stiffness.h"
+#include "service/core/metrics.h"
+#include "service/core/preprocess.h"
+#include "service/models/dataset.h"
+#include "service/models/stiffness_model.h"
+#include "sim/dataset/scene_gen.h"
+#include "sim/grasp/execute.h"
+#include "sim/progress.h"
+
+namespace softgrasp::tools {
+namespace {
+
+using nlohmann::json;
+
+int Fail(const std::string& message) {
+  std::cerr << "softgrasp-train evaluate: " << message << "\n";
+  return 2;
+}
+
+bool Take(std::vector<std::string>* args, const std::string& name, std::string* value) {
+  for (std::size_t i = 0; i + 1 < args->size(); ++i) {
+    if ((*args)[i] == name) {
+      *value = (*args)[i + 1];
+      args->erase(args->begin() + static_cast<std::ptrdiff_t>(i),
+                  args->begin() + static_cast<std::ptrdiff_t>(i) + 2);
+      return true;
+    }
+  }
+  return false;
+}
+
+bool ParseCount(const std::string& s, int* out) {
+  char* end = nullptr;
+  const long v = std::strtol(s.c_str(), &end, 10);
+  if (s.empty() || *end != '\0' || v < 0 || v > 1000000) return false;
+  *out = static_cast<int>(v);
+  return true;
+}
+
+/// Running mean.
+struct Mean {
+  double sum = 0;
+  int n = 0;
+  void Add(double v) {
+    if (std::isfinite(v)) {
+      sum += v;
+      ++n;
+    }
+  }
+  double value() const { return n > 0 ? sum / n : std::nan(""); }
+};
+
+json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+/// The mean of every training target pixel (background included): the constant baseline.
+core::Result<double> TrainingMean(const std::filesystem::path& dir) {
+  auto ds = models::SceneDataset::Open(dir);
+  if (!ds.ok()) return ds.error();
+  double sum = 0;
+  double n = 0;
+  for (int i = 0; i < ds.value().size(); ++i) {
+    const std::string path = ds.value().entry(i).stem.string() + "_stiffness.png";
+    const cv::Mat s = cv::imread(path, cv::IMREAD_UNCHANGED);
+    if (s.empty() || s.type() != CV_8UC1) {
+      return core::MakeError(core::ErrorCode::kUnprocessable, "cannot read " + path, "train-data");
+    }
+    sum += cv::sum(s)[0] / 255.0;
+    n += static_cast<double>(s.total());
+  }
+  return sum / n;
+}
+
+}  // namespace
+
+cv::Mat1f HeuristicStiffness(const core::Scene& scene, const core::Camera& camera) {
+  const cv::Mat1f& h = scene.height_m;
+  const cv::Mat1b object = h > 0.005f;
+  cv::Mat1b inner = object.clone();
+  for (int v = 0; v < h.rows; ++v) {
+    for (int u = 0; u < h.cols; ++u) {
+      if (!object(v, u)) continue;
+      const bool edge = (u + 1 < h.cols && std::abs(h(v, u + 1) - h(v, u)) > 0.005f) ||
+                        (u > 0 && std::abs(h(v, u - 1) - h(v, u)) > 0.005f) ||
+                        (v + 1 < h.rows && std::abs(h(v + 1, u) - h(v, u)) > 0.005f) ||
+                        (v > 0 && std::abs(h(v - 1, u) - h(v, u)) > 0.005f);
+      if (edge) inner(v, u) = 0;
+    }
+  }
+  cv::Mat1f dist_px;
+  cv::distanceTransform(inner, dist_px, cv::DIST_L2, 3);
+  // Millimetres at the floor (fx pixels per metre at 1 m): fine for a baseline.
+  const double floor_depth = std::abs(scene.floor.d / scene.floor.n[2]);
+  const double px_per_mm = camera.fx / floor_depth / 1000.0;
+  cv::Mat1f out(h.size(), 0.0f);
+  for (int v = 0; v < h.rows; ++v) {
+    for (int u = 0; u < h.cols; ++u) {
+      if (!object(v, u)) continue;
+      const double d_mm = dist_px(v, u) / px_per_mm;
+      out(v, u) = static_cast<float>(0.3 + 0.5 * std::min(1.0, d_mm / 20.0));
+    }
+  }
+  return out;
+}
+
+namespace {
+
+core::Result<sim::SceneSpec> SpecFromIndex(const json& index) {
+  sim::SceneSpec spec;
+  try {
+    spec.split = index.at("split").get<std::string>() == "val" ? sim::ShapeSplit::kVal
+                                                               : sim::ShapeSplit::kTrain;
+    spec.min_objects = index.at("objects").at(0).get<int>();
+    spec.max_objects = index.at("objects").at(1).get<int>();
+    const json& s = index.at("support");
+    spec.support.kind = s.at("kind").get<std::string>() == "table" ? sim::Support::Kind::kTable
+                                                                   : sim::Support::Kind::kBin;
+    spec.support.inner_size_x_m = s.at("inner_size_m").at(0).get<double>();
+    spec.support.inner_size_y_m = s.at("inner_size_m").at(1).get<double>();
+    spec.support.wall_height_m = s.at("wall_height_m").get<double>();
+    spec.support.wall_thickness_m = s.at("wall_thickness_m").get<double>();
+    spec.support.thickness_m = s.at("thickness_m").get<double>();
+    spec.support.ground_size_m = s.at("ground_size_m").get<double>();
+    spec.render.noise.enabled = index.at("noise").get<bool>();
+    spec.fractal_probability = index.at("fractal_probability").get<double>();
+  } catch (const json::exception& e) {
+    return core::MakeError(core::ErrorCode::kUnprocessable,
+                           std::string("index.json lacks scene parameters: ") + e.what(), "data");
+  }
+  return spec;
+}
+
+/// 255 inside the bin's inner floor area as seen by the camera (shrunk by `margin_px`): the
+/// workspace ROI of a bin-picking cell. Both planners and the heuristic only see heights there,
+/// since FGE alone would happily grasp the bin's free-standing walls.
+cv::Mat1b BinRoi(const sim::SceneSpec& spec, const core::Camera& cam, int margin_px) {
+  cv::Mat1b roi(cam.height, cam.width, static_cast<unsigned char>(0));
+  const Eigen::Isometry3d camera_from_world = spec.render.world_from_camera.inverse();
+  std::vector<cv::Point> corners;
+  for (const auto& [sx, sy] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
+    const Eigen::Vector3d p =
+        camera_from_world * Eigen::Vector3d(sx * spec.support.inner_size_x_m / 2,
+                                            sy * spec.support.inner_size_y_m / 2, 0.0);
+    corners.emplace_back(static_cast<int>(std::lround(cam.fx * p.x() / p.z() + cam.cx)),
+                         static_cast<int>(std::lround(cam.fy * p.y() / p.z() + cam.cy)));
+  }
+  cv::fillConvexPoly(roi, corners, cv::Scalar(255));
+  if (margin_px > 0) {
+    cv::erode(
+        roi, roi,
+        cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * margin_px + 1, 2 * margin_px + 1)));
+  }
+  return roi;
+}
+
+struct StrategyStats {
+  Mean gt_mean_stiffness;  // eq. 3.14 on the ground-truth map
+  Mean deformation_rate;   // over grasps that closed on one object (succeeded or slipped)
+  int attempts = 0;
+  int no_grasp = 0;
+  int succeeded = 0;
+  int damaged = 0;
+  std::map<std::string, int> outcomes;
+  std::map<std::string, std::string> example_reason;  // first reason per outcome
+  json ToJson() const {
+    json o = {{"scenes", attempts + no_grasp},
+              {"grasps", attempts},
+              {"no_grasp", no_grasp},
+              {"mean_gt_stiffness_in_region", Num(gt_mean_stiffness.value())},
+              {"mean_deformation_rate", Num(deformation_rate.value())},
+              {"success_rate", attempts + no_grasp > 0
+                                   ? json(static_cast<double>(succeeded) / (attempts + no_grasp))
+                                   : json(nullptr)},
+              {"damage_rate",
+               attempts > 0 ? json(static_cast<double>(damaged) / attempts) : json(nullptr)},
+              {"outcomes", outcomes},
+              {"example_reason", example_reason}};
+    return o;
+  }
+};
+
+void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
+             const Eigen::Isometry3d& world_from_camera, const std::vector<core::Grasp>& grasps,
+             const cv::Mat1f& truth, StrategyStats* stats) {
+  if (grasps.empty()) {
+    ++stats->no_grasp;
+    return;
+  }
+  const core::Grasp& g = grasps.front();
+  ++stats->attempts;
+  stats->gt_mean_stiffness.Add(core::MeanStiffnessInGraspRegion(truth, g));
+  auto exec = sim::ExecuteGrasp(scene, raycaster, sim::SimGraspFromCamera(g, world_from_camera),
+                                sim::SimGripper{});
+  if (!exec.ok()) {
+    ++stats->outcomes["error"];
+    return;
+  }
+  const sim::GraspExecution& e = exec.value();
+  ++stats->outcomes[sim::GraspOutcomeName(e.outcome)];
+  stats->example_reason.emplace(sim::GraspOutcomeName(e.outcome), e.reason);
+  if (e.outcome == sim::GraspOutcome::kSucceeded || e.outcome == sim::GraspOutcome::kSlipped) {
+    stats->deformation_rate.Add(e.deformation_rate);
+  }
+  if (e.succeeded()) ++stats->succeeded;
+  if (e.damaged) ++stats->damaged;
+}
+
+}  // namespace
+
+int RunEvaluate(std::vector<std::string> args) {
+  std::string model_path, data, train_data, value;
+  int max_scenes = 0;
+  int grasp_scenes = 50;
+  int threads = 2;
+  double constant = std::nan("");
+  if (!Take(&args, "--model", &model_path)) return Fail("--model MODEL is required");
+  if (!Take(&args, "--data", &data)) return Fail("--data VALDIR is required");
+  Take(&args, "--train-data", &train_data);
+  if (Take(&args, "--constant", &value)) {
+    char* end = nullptr;
+    constant = std::strtod(value.c_str(), &end);
+    if (*end != '\0' || !(constant >= 0 && constant <= 1)) return Fail("--constant in [0, 1]");
+  }
+  if (Take(&args, "--scenes", &value) && !ParseCount(value, &max_scenes)) {
+    return Fail("--scenes must be a count");
+  }
+  if (Take(&args, "--grasp-scenes", &value) && !ParseCount(value, &grasp_scenes)) {
+    return Fail("--grasp-scenes must be a count");
+  }
+  if (Take(&args, "--threads", &value) && (!ParseCount(value, &threads) || threads < 1)) {
+    return Fail("--threads must be >= 1");
+  }
+  if (!args.empty()) return Fail("unknown argument " + args.front());
+  if (train_data.empty() && !std::isfinite(constant)) {
+    return Fail("the constant baseline needs --train-data DIR (its mean) or --constant C");
+  }
+  models::SetTorchThreads(threads);
+  cv::setNumThreads(threads);
+
+  auto model = models::StiffnessModel::Load(model_path);
+  if (!model.ok()) return Fail(model.error().message);
+  auto val = models::SceneDataset::Open(data);
+  if (!val.ok()) return Fail(val.error().message);
+  if (!std::isfinite(constant)) {
+    auto mean = TrainingMean(train_data);
+    if (!mean.ok()) return Fail(mean.error().message);
+    constant = mean.value();
+  }
+  auto spec = SpecFromIndex(val.value().index());
+  if (!spec.ok()) return Fail(spec.error().message);
+
+  const int n = max_scenes > 0 ? std::min(max_scenes, val.value().size()) : val.value().size();
+  const int n_grasp = std::min(grasp_scenes, n);
+  Mean rmse_model, rmse_const, rmse_heur, mssim_model, mssim_const, mssim_heur;
+  std::vector<double> predict_ms;
+  StrategyStats fge, stiff, oracle;
+  int skipped = 0, mismatched = 0;
+  sim::ProgressBar bar("evaluating", n);
+  for (int i = 0; i < n; ++i) {
+    bar.Update(i);
+    auto sample = val.value().Load(i);
+    if (!sample.ok()) return Fail(sample.error().message);
+    const models::SceneSample& s = sample.value();
+    const auto t0 = std::chrono::steady_clock::now();
+    auto scene = core::Preprocess(s.depth, s.camera);
+    if (!scene.ok()) {
+      ++skipped;
+      continue;
+    }
+    const cv::Mat1f predicted = model.value().PredictScene(scene.value());
+    predict_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    const cv::Mat1f constant_map(s.stiffness.size(), static_cast<float>(constant));
+    // Planners and the heuristic work inside the bin (a workspace ROI); the model sees it all.
+    core::Scene in_bin = scene.value();
+    if (spec.value().support.kind == sim::Support::Kind::kBin) {
+      in_bin.height_m.setTo(0.0f, BinRoi(spec.value(), s.camera, 3) == 0);
+    }
+    const cv::Mat1f heuristic = HeuristicStiffness(in_bin, s.camera);
+    rmse_model.Add(core::StiffnessRmse255(s.stiffness, predicted).value());
+    rmse_const.Add(core::StiffnessRmse255(s.stiffness, constant_map).value());
+    rmse_heur.Add(core::StiffnessRmse255(s.stiffness, heuristic).value());
+    mssim_model.Add(core::StiffnessMssim(s.stiffness, predicted).value());
+    mssim_const.Add(core::StiffnessMssim(s.stiffness, constant_map).value());
+    mssim_heur.Add(core::StiffnessMssim(s.stiffness, heuristic).value());
+    if (i >= n_grasp) continue;
+
+    // Grasps: the same scene rebuilt exactly (GenerateScene is deterministic in its seed).
+    auto generated = sim::GenerateScene(spec.value(), val.value().entry(i).scene_seed);
+    if (!generated.ok()) return Fail(generated.error().message);
+    const sim::GeneratedScene& g = generated.value();
+    if (cv::norm(g.views.labels, s.labels, cv::NORM_INF) != 0) {
+      ++mismatched;  // the dataset was not made with these parameters: skip its grasps
+      continue;
+    }
+    auto raycaster = sim::SceneRaycaster::Build(g.scene);
+    if (!raycaster.ok()) return Fail(raycaster.error().message);
+    const Eigen::Isometry3d& world_from_camera = spec.value().render.world_from_camera;
+    const core::Gripper gripper;
+    Execute(g.scene, raycaster.value(), world_from_camera,
+            core::DetectGraspsFge(in_bin, s.camera, gripper), s.stiffness, &fge);
+    Execute(g.scene, raycaster.value(), world_from_camera,
+            core::DetectGraspsStiffness(in_bin, s.camera, predicted, gripper), s.stiffness, &stiff);
+    Execute(g.scene, raycaster.value(), world_from_camera,
+            core::DetectGraspsStiffness(in_bin, s.camera, s.stiffness, gripper), s.stiffness,
+            &oracle);
+  }
+  bar.Update(n);
+  std::sort(predict_ms.begin(), predict_ms.end());
+  const double median_ms = predict_ms.empty() ? std::nan("") : predict_ms[predict_ms.size() / 2];
+  const double fge_s = fge.gt_mean_stiffness.value();
+  const double st_s = stiff.gt_mean_stiffness.value();
+  const json out = {
+      {"model", model_path},
+      {"model_description", model.value().description()},
+      {"data", data},
+      {"scenes", n - skipped},
+      {"skipped_scenes", skipped},
+      {"image_metrics",
+       {{"model", {{"rmse_255", Num(rmse_model.value())}, {"mssim", Num(mssim_model.value())}}},
+        {"constant_baseline",
+         {{"value", constant},
+          {"rmse_255", Num(rmse_const.value())},
+          {"mssim", Num(mssim_const.value())}}},
+        {"heuristic_baseline",
+         {{"rmse_255", Num(rmse_heur.value())}, {"mssim", Num(mssim_heur.value())}}}}},
+      {"predict_ms_median_incl_preprocess", Num(median_ms)},
+      {"grasp_metrics",
+       {{"scenes", n_grasp},
+        {"scenes_not_reproduced", mismatched},
+        {"fge", fge.ToJson()},
+        {"stiffness_model", stiff.ToJson()},
+        {"stiffness_ground_truth", oracle.ToJson()},
+        {"mean_stiffness_gain", Num(st_s / fge_s - 1.0)}}},
+  };
+  std::cout << out.dump(2) << std::endl;
+  return 0;
+}
+
+}  // namespace softgrasp::tools
