@@ -14,17 +14,15 @@
 namespace softgrasp::core {
 namespace {
 
+using fge_detail::AngleOf;
 using fge_detail::GripperPx;
 using fge_detail::LocalMaximum;
+using fge_detail::Near;
+using fge_detail::SimilarAngle;
 using fge_detail::Slice;
+using fge_detail::StableContacts;
 
-// Contact check (docs/fge.md, "Contact check"): along every line of the closing region parallel
-// to the closing axis, the outermost surface point on each side is where that line meets a
-// finger. Lines whose contact lies within kContactFaceToleranceM of the first contact form the
-// contact patch; each finger needs a patch of kMinContactPatchM (and kMinContactPatchPx).
-constexpr double kContactFaceToleranceM = 0.002;
-constexpr double kMinContactPatchM = 0.005;
-constexpr int kMinContactPatchPx = 2;
+// At most this many contact checks per map (each walks the whole closing region).
 constexpr int kMaxContactChecksPerMap = 64;
 
 struct Candidate {
@@ -44,8 +42,6 @@ bool Better(const Candidate& a, const Candidate& b) {
   return a.u_px < b.u_px;
 }
 
-double AngleOf(int index, int num_angles) { return std::numbers::pi * index / num_angles; }
-
 // Angle indices in the order the fast path likes: with an even count, each angle is followed by
 // the one 90 degrees further, whose rotated image is an exact turn of the previous one.
 std::vector<int> AngleOrder(int num_angles) {
@@ -59,62 +55,11 @@ std::vector<int> AngleOrder(int num_angles) {
   return order;
 }
 
-bool Near(const Candidate& a, const Candidate& b, double radius_px) {
-  const double du = a.u_px - b.u_px;
-  const double dv = a.v_px - b.v_px;
-  return du * du + dv * dv < radius_px * radius_px;
-}
-
-// Angles within one step (180 / num_angles degrees) are similar; the angle wraps at pi.
-bool SimilarAngle(const Candidate& a, const Candidate& b, int num_angles) {
-  const int d = std::abs(a.angle_index - b.angle_index) % num_angles;
-  return std::min(d, num_angles - d) <= 1;
-}
-
 struct ContactGeometry {
   double px_per_m = 0;
   GripperPx gripper;
   double tip_height_m = 0;
 };
-
-// Number of lines (rows across the finger) touching the finger at the first contact, one side.
-int PatchRows(const std::vector<int>& first_contact, int tolerance_px) {
-  int best = std::numeric_limits<int>::min();
-  for (int a : first_contact) best = std::max(best, a);
-  if (best == std::numeric_limits<int>::min()) return 0;
-  return static_cast<int>(std::count_if(first_contact.begin(), first_contact.end(),
-                                        [&](int a) { return a >= best - tolerance_px; }));
-}
-
-bool StableContacts(const cv::Mat1f& height_m, const Candidate& c, double angle_rad,
-                    const ContactGeometry& geo) {
-  const int half_len = static_cast<int>(std::floor(geo.gripper.opening_px / 2));
-  const int half_width = static_cast<int>(std::floor(geo.gripper.finger_width_px / 2));
-  const double cs = std::cos(angle_rad);
-  const double sn = std::sin(angle_rad);
-  const auto tip = static_cast<float>(geo.tip_height_m);
-  const int none = std::numeric_limits<int>::min();
-  std::vector<int> right(static_cast<std::size_t>(2 * half_width + 1), none);
-  std::vector<int> left(right.size(), none);  // stores -a so both sides use "max"
-  for (int b = -half_width; b <= half_width; ++b) {
-    auto& r = right[static_cast<std::size_t>(b + half_width)];
-    auto& l = left[static_cast<std::size_t>(b + half_width)];
-    // Walk the line a = -half_len .. half_len; +0.5 and truncation round (coordinates >= -0.5).
-    double u = c.u_px - half_len * cs - b * sn + 0.5;
-    double v = c.v_px - half_len * sn + b * cs + 0.5;
-    for (int a = -half_len; a <= half_len; ++a, u += cs, v += sn) {
-      if (u < 0 || v < 0 || u >= height_m.cols || v >= height_m.rows) continue;
-      if (!(height_m(static_cast<int>(v), static_cast<int>(u)) > tip)) continue;
-      r = a;  // a increases: the last hit is the outermost on the +a side
-      if (l == none) l = -a;
-    }
-  }
-  const int tolerance_px =
-      std::max(1, static_cast<int>(std::floor(kContactFaceToleranceM * geo.px_per_m)));
-  const int min_rows = std::max(kMinContactPatchPx,
-                                static_cast<int>(std::ceil(kMinContactPatchM * geo.px_per_m)));
-  return PatchRows(right, tolerance_px) >= min_rows && PatchRows(left, tolerance_px) >= min_rows;
-}
 
 // Per map: best first, spatial NMS, contact check; keeps at most top_k.
 std::vector<Candidate> SelectInMap(std::vector<Candidate> peaks, const Scene& scene,
@@ -130,7 +75,10 @@ std::vector<Candidate> SelectInMap(std::vector<Candidate> peaks, const Scene& sc
     });
     if (suppressed) continue;
     ++checks;
-    if (StableContacts(scene.height_m, c, angle_rad, geo)) kept.push_back(c);
+    if (StableContacts(scene.height_m, c.u_px, c.v_px, angle_rad, geo.gripper, geo.px_per_m,
+                       geo.tip_height_m)) {
+      kept.push_back(c);
+    }
   }
   return kept;
 }
@@ -182,8 +130,8 @@ FgeMaps ComputeFgeMaps(const Scene& scene, const Camera& camera, const Gripper& 
   return fast.Maps(angle_rad, 0);
 }
 
-std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera,
-                                   const Gripper& gripper, const FgeParams& params) {
+std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, const Gripper& gripper,
+                                   const FgeParams& params) {
   fge_detail::CheckInputs(camera, gripper, params);
   if (scene.height_m.empty()) return {};
   const auto search = fge_detail::SearchSlices(scene.height_m, gripper, params);

@@ -1,11 +1,10 @@
 #include "service/core/fge_geometry.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -105,8 +104,8 @@ cv::Mat1b FreeObjectPixels(const cv::Mat1f& height_m, double level_m) {
 }
 
 struct FreeObjects {
-  double top_m = 0;     // n-th highest free-object pixel
-  cv::Mat1b pixels;     // the free objects
+  double top_m = 0;  // n-th highest free-object pixel
+  cv::Mat1b pixels;  // the free objects
 };
 
 // Free objects at the lowest level (from lowest_m up in steps) where they cover n pixels.
@@ -126,8 +125,8 @@ std::optional<FreeObjects> FindFreeObjects(const cv::Mat1f& height_m, double low
 }  // namespace
 
 void CheckInputs(const Camera& camera, const Gripper& gripper, const FgeParams& params) {
-  Require(std::isfinite(camera.fx) && camera.fx > 0 && std::isfinite(camera.fy) &&
-              camera.fy > 0 && std::isfinite(camera.cx) && std::isfinite(camera.cy),
+  Require(std::isfinite(camera.fx) && camera.fx > 0 && std::isfinite(camera.fy) && camera.fy > 0 &&
+              std::isfinite(camera.cx) && std::isfinite(camera.cy),
           "camera intrinsics must be finite with fx, fy > 0");
   Require(gripper.opening_stroke_mm > 0 && gripper.finger_width_mm > 0 &&
               gripper.finger_thickness_mm > 0 && gripper.finger_length_mm > 0,
@@ -183,8 +182,7 @@ int GaussianKernelSize(double sigma_px) {
   return 2 * static_cast<int>(std::ceil(3 * sigma_px)) + 1;
 }
 
-Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& params,
-              int index) {
+Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& params, int index) {
   const double tip_height_m = contact_height_m - params.grip_depth_m;
   return {index, contact_height_m, tip_height_m, tip_height_m + gripper.finger_length_mm * kMmToM};
 }
@@ -211,8 +209,8 @@ SliceSearch SearchSlices(const cv::Mat1f& height_m, const Gripper& gripper,
     if (slice.tip_height_m < params.floor_clearance_m) {
       // The step would put the fingertips under the clearance: one last slice with the tips
       // exactly at the clearance, unless the previous slice is (almost) there already.
-      const bool room = !slices.empty() &&
-                        slices.back().tip_height_m > params.floor_clearance_m + kMinSliceGapM;
+      const bool room =
+          !slices.empty() && slices.back().tip_height_m > params.floor_clearance_m + kMinSliceGapM;
       if (room) slices.push_back(SliceAt(lowest_m, gripper, params, k));
       break;
     }
@@ -260,8 +258,8 @@ cv::Mat1f SeamLevels(const cv::Mat1f& height_m, double seam_step_m) {
     float* s1 = seam.ptr<float>(v + 1);
     for (int u = 0; u < cols; ++u) {
       if (!(std::abs(h0[u] - h1[u]) >= step)) continue;
-      const float level = SeamLevel(above ? above[u] : nan, h0[u], h1[u],
-                                    below ? below[u] : nan, step, flat);
+      const float level =
+          SeamLevel(above ? above[u] : nan, h0[u], h1[u], below ? below[u] : nan, step, flat);
       s0[u] = std::max(s0[u], level);
       s1[u] = std::max(s1[u], level);
     }
@@ -280,6 +278,54 @@ std::array<double, 3> PointOnRayAtHeight(const Camera& camera, const Plane& floo
 
 std::array<double, 4> QuaternionAboutZ(double angle_rad) {
   return {std::cos(angle_rad / 2), 0.0, 0.0, std::sin(angle_rad / 2)};
+}
+
+namespace {
+
+// See StableContacts.
+constexpr double kContactFaceToleranceM = 0.002;
+constexpr double kMinContactPatchM = 0.005;
+constexpr int kMinContactPatchPx = 2;
+
+// Number of lines (rows across the finger) touching the finger at the first contact, one side.
+int PatchRows(const std::vector<int>& first_contact, int tolerance_px) {
+  int best = std::numeric_limits<int>::min();
+  for (int a : first_contact) best = std::max(best, a);
+  if (best == std::numeric_limits<int>::min()) return 0;
+  return static_cast<int>(std::count_if(first_contact.begin(), first_contact.end(),
+                                        [&](int a) { return a >= best - tolerance_px; }));
+}
+
+}  // namespace
+
+bool StableContacts(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
+                    const GripperPx& gripper, double px_per_m, double tip_height_m) {
+  const int half_len = static_cast<int>(std::floor(gripper.opening_px / 2));
+  const int half_width = static_cast<int>(std::floor(gripper.finger_width_px / 2));
+  const double cs = std::cos(angle_rad);
+  const double sn = std::sin(angle_rad);
+  const auto tip = static_cast<float>(tip_height_m);
+  const int none = std::numeric_limits<int>::min();
+  std::vector<int> right(static_cast<std::size_t>(2 * half_width + 1), none);
+  std::vector<int> left(right.size(), none);  // stores -a so both sides use "max"
+  for (int b = -half_width; b <= half_width; ++b) {
+    auto& r = right[static_cast<std::size_t>(b + half_width)];
+    auto& l = left[static_cast<std::size_t>(b + half_width)];
+    // Walk the line a = -half_len .. half_len; +0.5 and truncation round (coordinates >= -0.5).
+    double u = u_px - half_len * cs - b * sn + 0.5;
+    double v = v_px - half_len * sn + b * cs + 0.5;
+    for (int a = -half_len; a <= half_len; ++a, u += cs, v += sn) {
+      if (u < 0 || v < 0 || u >= height_m.cols || v >= height_m.rows) continue;
+      if (!(height_m(static_cast<int>(v), static_cast<int>(u)) > tip)) continue;
+      r = a;  // a increases: the last hit is the outermost on the +a side
+      if (l == none) l = -a;
+    }
+  }
+  const int tolerance_px =
+      std::max(1, static_cast<int>(std::floor(kContactFaceToleranceM * px_per_m)));
+  const int min_rows =
+      std::max(kMinContactPatchPx, static_cast<int>(std::ceil(kMinContactPatchM * px_per_m)));
+  return PatchRows(right, tolerance_px) >= min_rows && PatchRows(left, tolerance_px) >= min_rows;
 }
 
 }  // namespace softgrasp::core::fge_detail

@@ -2,10 +2,11 @@
 /// Internal to softgrasp_core: geometry shared by the fast and the reference FGE and by the grasp
 /// search (slices, template rasterisation, seams, poses). See docs/fge.md for the formulas.
 
+#include <algorithm>
 #include <array>
-#include <vector>
-
+#include <cstdlib>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "service/core/fge.h"
 
@@ -87,9 +88,9 @@ struct SliceSearch {
 /// free objects: connected regions above a level that do not touch the image border, at the
 /// lowest level (floor_clearance + grip_depth, + k height steps) where such objects exist. So
 /// bin walls, robot parts reaching into the image and objects cut by the frame do not set it.
-/// If there is no free object at any level, all pixels count and all are graspable. Slices step down by height_step_m;
-/// a step that would put the fingertips under floor_clearance_m is replaced by a last slice with
-/// the tips exactly at the clearance (low objects keep a grasp at their base).
+/// If there is no free object at any level, all pixels count and all are graspable. Slices step
+/// down by height_step_m; a step that would put the fingertips under floor_clearance_m is replaced
+/// by a last slice with the tips exactly at the clearance (low objects keep a grasp at their base).
 SliceSearch SearchSlices(const cv::Mat1f& height_m, const Gripper& gripper,
                          const FgeParams& params);
 Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& params,
@@ -107,5 +108,32 @@ std::array<double, 3> PointOnRayAtHeight(const Camera& camera, const Plane& floo
                                          double v_px, double height_m);
 /// Rotation about the camera z axis by angle_rad, as (w, x, y, z).
 std::array<double, 4> QuaternionAboutZ(double angle_rad);
+
+/// Angle of map `index` of `num_angles` in [0, pi).
+inline double AngleOf(int index, int num_angles) {
+  return 3.14159265358979323846 * index / num_angles;
+}
+
+/// Candidates within radius_px of each other (any type with u_px, v_px).
+template <class C>
+bool Near(const C& a, const C& b, double radius_px) {
+  const double du = a.u_px - b.u_px;
+  const double dv = a.v_px - b.v_px;
+  return du * du + dv * dv < radius_px * radius_px;
+}
+
+/// Angles within one step (180 / num_angles degrees) are similar; the angle wraps at pi.
+template <class C>
+bool SimilarAngle(const C& a, const C& b, int num_angles) {
+  const int d = std::abs(a.angle_index - b.angle_index) % num_angles;
+  return std::min(d, num_angles - d) <= 1;
+}
+
+/// The contact check (docs/fge.md, "Contact check"): along every line of the closing region
+/// parallel to the closing axis, the outermost surface point above tip_height_m on each side is
+/// where that line meets a finger. Lines within 2 mm of the first contact form the patch; each
+/// finger needs a patch of 5 mm (and >= 2 px).
+bool StableContacts(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
+                    const GripperPx& gripper, double px_per_m, double tip_height_m);
 
 }  // namespace softgrasp::core::fge_detail

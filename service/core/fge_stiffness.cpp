@@ -12,14 +12,14 @@
 namespace softgrasp::core {
 namespace {
 
+using fge_detail::AngleOf;
 using fge_detail::GripperPx;
+using fge_detail::Near;
+using fge_detail::SimilarAngle;
 using fge_detail::Slice;
+using fge_detail::StableContacts;
 
-// The contact check of classic FGE (fge.cpp, docs/fge.md "Contact check"), same constants:
-// both fingers need a contact patch of 5 mm (>= 2 px) within 2 mm of their first contact.
-constexpr double kContactFaceToleranceM = 0.002;
-constexpr double kMinContactPatchM = 0.005;
-constexpr int kMinContactPatchPx = 2;
+// At most this many contact checks per map, as in classic FGE.
 constexpr int kMaxContactChecksPerMap = 64;
 // Closing regions larger than this many pixels are sampled on every second row and column: the
 // mean stiffness barely changes and the search gets 4x cheaper.
@@ -41,19 +41,6 @@ bool Better(const Candidate& a, const Candidate& b) {
   if (a.angle_index != b.angle_index) return a.angle_index < b.angle_index;
   if (a.v_px != b.v_px) return a.v_px < b.v_px;
   return a.u_px < b.u_px;
-}
-
-double AngleOf(int index, int num_angles) { return std::numbers::pi * index / num_angles; }
-
-bool Near(const Candidate& a, const Candidate& b, double radius_px) {
-  const double du = a.u_px - b.u_px;
-  const double dv = a.v_px - b.v_px;
-  return du * du + dv * dv < radius_px * radius_px;
-}
-
-bool SimilarAngle(const Candidate& a, const Candidate& b, int num_angles) {
-  const int d = std::abs(a.angle_index - b.angle_index) % num_angles;
-  return std::min(d, num_angles - d) <= 1;
 }
 
 /// Integer offsets of the closing region T_t (pixel-centre rule) at one angle.
@@ -89,43 +76,6 @@ double MeanOverOffsets(const cv::Mat1f& stiffness, const cv::Mat1b& contact, int
     ++count;
   }
   return count > 0 ? sum / count : std::numeric_limits<double>::quiet_NaN();
-}
-
-int PatchRows(const std::vector<int>& first_contact, int tolerance_px) {
-  int best = std::numeric_limits<int>::min();
-  for (int a : first_contact) best = std::max(best, a);
-  if (best == std::numeric_limits<int>::min()) return 0;
-  return static_cast<int>(std::count_if(first_contact.begin(), first_contact.end(),
-                                        [&](int a) { return a >= best - tolerance_px; }));
-}
-
-bool StableContacts(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
-                    const GripperPx& g, double px_per_m, double tip_height_m) {
-  const int half_len = static_cast<int>(std::floor(g.opening_px / 2));
-  const int half_width = static_cast<int>(std::floor(g.finger_width_px / 2));
-  const double cs = std::cos(angle_rad);
-  const double sn = std::sin(angle_rad);
-  const auto tip = static_cast<float>(tip_height_m);
-  const int none = std::numeric_limits<int>::min();
-  std::vector<int> right(static_cast<std::size_t>(2 * half_width + 1), none);
-  std::vector<int> left(right.size(), none);
-  for (int b = -half_width; b <= half_width; ++b) {
-    auto& r = right[static_cast<std::size_t>(b + half_width)];
-    auto& l = left[static_cast<std::size_t>(b + half_width)];
-    double u = u_px - half_len * cs - b * sn + 0.5;
-    double v = v_px - half_len * sn + b * cs + 0.5;
-    for (int a = -half_len; a <= half_len; ++a, u += cs, v += sn) {
-      if (u < 0 || v < 0 || u >= height_m.cols || v >= height_m.rows) continue;
-      if (!(height_m(static_cast<int>(v), static_cast<int>(u)) > tip)) continue;
-      r = a;
-      if (l == none) l = -a;
-    }
-  }
-  const int tolerance_px =
-      std::max(1, static_cast<int>(std::floor(kContactFaceToleranceM * px_per_m)));
-  const int min_rows =
-      std::max(kMinContactPatchPx, static_cast<int>(std::ceil(kMinContactPatchM * px_per_m)));
-  return PatchRows(right, tolerance_px) >= min_rows && PatchRows(left, tolerance_px) >= min_rows;
 }
 
 struct SliceData {
