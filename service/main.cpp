@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "service/http/server.h"
+#include "service/models/stiffness_model.h"
 #include "service/rest/api.h"
 #include "service/rest/config.h"
 #include "service/robot/command_tracker.h"
@@ -61,6 +62,25 @@ softgrasp::core::Result<std::shared_ptr<softgrasp::robot::CommandTracker>> Start
   return std::shared_ptr<robot::CommandTracker>(std::move(tracker).value());
 }
 
+// The pix2stiffness model (docs/stiffness.md), or null when configured "none". A configured
+// model that cannot be loaded is an error: the service does not start without what it was told
+// to serve.
+softgrasp::core::Result<std::shared_ptr<const softgrasp::models::StiffnessModel>> LoadStiffnessModel(
+    const std::string& path) {
+  using namespace softgrasp;
+  if (path == "none") {
+    std::cerr << "softgrasp-server: no stiffness model (POST /v1/stiffness answers 503, grasps use "
+                 "strategy fge)\n";
+    return std::shared_ptr<const models::StiffnessModel>();
+  }
+  auto model = models::StiffnessModel::Load(path);
+  if (!model) return model.error();
+  std::cerr << "softgrasp-server: stiffness model " << path << " (" << model.value().description()
+            << ")\n";
+  return std::shared_ptr<const models::StiffnessModel>(
+      std::make_shared<models::StiffnessModel>(std::move(model).value()));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -77,11 +97,21 @@ int main(int argc, char** argv) {
   rest::ServiceConfig& config = command_line.value().config;
   if (config.web_root.empty()) config.web_root = rest::DefaultWebRoot(ExecutablePath(argv[0]));
   if (config.robot.journal_dir.empty()) config.robot.journal_dir = rest::DefaultJournalDir();
+  if (config.stiffness_model.empty()) {
+    config.stiffness_model = rest::DefaultStiffnessModel(ExecutablePath(argv[0]));
+  }
   std::cerr << "config " << rest::ConfigToJson(config) << "\n";
   if (std::error_code error; !std::filesystem::is_regular_file(
           std::filesystem::path(config.web_root) / "index.html", error)) {
     std::cerr << "softgrasp-server: no web page in " << config.web_root
               << " (GET / answers 404): run scripts/build.sh or pass --web-root\n";
+  }
+
+  auto stiffness_model = LoadStiffnessModel(config.stiffness_model);
+  if (!stiffness_model) {
+    std::cerr << "softgrasp-server: the stiffness model cannot be loaded: "
+              << stiffness_model.error().message << "\n";
+    return 1;
   }
 
   // Before any thread starts (DDS and the tracker start threads), so they all inherit the mask.
@@ -93,7 +123,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   try {
-    http::Router router = rest::BuildRouter(config, robot.value());
+    http::Router router = rest::BuildRouter(config, robot.value(), stiffness_model.value());
     http::Server server(config.server,
                         [&router](http::Request& request) { return router.Dispatch(request); });
     server.Start();

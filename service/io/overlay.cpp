@@ -119,15 +119,40 @@ cv::Mat3b ColorizeDepth(const core::DepthImage& depth) {
   return out;
 }
 
-cv::Mat3b RenderGraspOverlay(const core::DepthImage& depth,
-                             const std::vector<core::Grasp>& grasps) {
-  cv::Mat3b image = ColorizeDepth(depth);
+cv::Mat3b ColorizeStiffness(const cv::Mat1f& stiffness, float background_below) {
+  cv::Mat3b out(stiffness.size(), cv::Vec3b(0, 0, 0));
+  if (stiffness.empty()) return out;
+  cv::Mat1b levels(stiffness.size(), 0);
+  cv::Mat1b object(stiffness.size(), 0);
+  for (int r = 0; r < stiffness.rows; ++r) {
+    const float* s = stiffness.ptr<float>(r);
+    for (int c = 0; c < stiffness.cols; ++c) {
+      if (!(s[c] >= background_below)) continue;  // NaN is background too
+      // Fixed scale: the softest catalogue level (0.1) at the cold end, 1 at the warm end.
+      const float t = std::clamp((s[c] - 0.1f) / 0.9f, 0.0f, 1.0f);
+      levels(r, c) = cv::saturate_cast<uchar>(255.0f * t);
+      object(r, c) = 255;
+    }
+  }
+  cv::Mat colored;
+  cv::applyColorMap(levels, colored, cv::COLORMAP_TURBO);
+  colored.copyTo(out, object);
+  return out;
+}
+
+cv::Mat3b DrawGrasps(const cv::Mat3b& background, const std::vector<core::Grasp>& grasps) {
+  cv::Mat3b image = background.clone();
   if (image.empty()) return image;
   // Lower-ranked grasps first, so the best one ends up on top.
   for (std::size_t i = grasps.size(); i-- > 0;) {
     DrawGrasp(image, grasps[i], i == 0 ? kBestStyle : kOtherStyle);
   }
   return image;
+}
+
+cv::Mat3b RenderGraspOverlay(const core::DepthImage& depth,
+                             const std::vector<core::Grasp>& grasps) {
+  return DrawGrasps(ColorizeDepth(depth), grasps);
 }
 
 }  // namespace softgrasp::io

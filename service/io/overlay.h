@@ -18,4 +18,13 @@ cv::Mat3b RenderGraspOverlay(const core::DepthImage& depth, const std::vector<co
 /// Depth colour-mapped alone, as above.
 cv::Mat3b ColorizeDepth(const core::DepthImage& depth);
 
+/// A stiffness map (values in [0, 1], 1 = hard) colour-mapped on a fixed scale so a colour means
+/// the same stiffness in every picture: soft (0.1) blue through green and yellow to hard (1.0)
+/// red (the turbo map). Pixels below `background_below` (and NaN) are background: black. BGR.
+cv::Mat3b ColorizeStiffness(const cv::Mat1f& stiffness, float background_below);
+
+/// `grasps` drawn as in RenderGraspOverlay over any picture of the image's size (e.g.
+/// ColorizeStiffness). Returns a copy; `background` is not changed.
+cv::Mat3b DrawGrasps(const cv::Mat3b& background, const std::vector<core::Grasp>& grasps);
+
 }  // namespace softgrasp::io

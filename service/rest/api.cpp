@@ -2,17 +2,19 @@
 
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "service/core/fge.h"
+#include "service/core/fge_stiffness.h"
 #include "service/core/preprocess.h"
 #include "service/http/static_files.h"
 #include "service/io/depth_codec.h"
 #include "service/io/overlay.h"
 #include "service/rest/build_info.h"
 #include "service/rest/fractal_request.h"
-#include "service/rest/grasp_request.h"
+#include "service/rest/depth_request.h"
 #include "service/rest/robot_api.h"
 
 namespace softgrasp::rest {
@@ -20,6 +22,7 @@ namespace {
 
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
+using StiffnessModelPtr = std::shared_ptr<const models::StiffnessModel>;
 
 double MillisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
@@ -38,6 +41,9 @@ json GraspToJson(const core::Grasp& g, int rank) {
       {"contact_height_m", g.contact_height_m},
       {"grasp_height_m", g.grasp_height_m},
       {"height_step", g.height_step},
+      // Mean of the stiffness map over the contact surface in the closing region, in [0, 1];
+      // null when no model is loaded.
+      {"mean_stiffness", std::isfinite(g.mean_stiffness) ? json(g.mean_stiffness) : json()},
       {"pose",
        {{"frame", "camera"},
         {"position_m", {g.p_CG_m[0], g.p_CG_m[1], g.p_CG_m[2]}},
@@ -67,7 +73,20 @@ json RobotInfoJson(const ServiceConfig& config, bool running) {
   return robot;
 }
 
-http::Response Info(const ServiceConfig& config, bool robot_running) {
+json ModelsJson(const StiffnessModelPtr& model) {
+  json list = json::array();
+  if (model) {
+    list.push_back({{"name", "pix2stiffness"},
+                    {"kind", "stiffness"},
+                    {"input_size", model->input_size()},
+                    {"parameters", model->parameter_count()},
+                    {"description", model->description()}});
+  }
+  return list;
+}
+
+http::Response Info(const ServiceConfig& config, bool robot_running,
+                    const StiffnessModelPtr& model) {
   const auto& limits = config.server.limits;
   json body = {
       {"name", "softgrasp"},
@@ -87,9 +106,11 @@ http::Response Info(const ServiceConfig& config, bool robot_running) {
         {"read_timeout_ms", config.server.read_timeout_ms},
         {"max_fractal_points", config.max_fractal_points},
         {"max_fractal_attempts", config.max_fractal_attempts}}},
-      {"models", json::array()},
-      {"strategies", {"fge"}},
+      {"models", ModelsJson(model)},
+      {"strategies", model ? json{"fge", "stiffness"} : json{"fge"}},
+      {"default_strategy", model ? "stiffness" : "fge"},
       {"depth_formats", {"npy", "png16", "tiff"}},
+      {"stiffness_formats", {"png8", "png16", "npy", "color"}},
       {"mesh_formats", {"obj", "ply_ascii", "ply_binary", "stl_ascii", "stl_binary"}},
       {"defaults",
        {{"camera", CameraToJson(config.default_camera)},
@@ -104,61 +125,134 @@ http::Response Info(const ServiceConfig& config, bool robot_running) {
   return http::Response::Json(200, body.dump());
 }
 
-http::Response Grasps(const http::Request& request, const ServiceConfig& config) {
+http::Response PngResponse(const cv::Mat& image, std::size_t grasp_count) {
+  http::Response png = http::Response::Bytes(200, "image/png", io::EncodePng(image));
+  png.set_header("X-Grasp-Count", std::to_string(grasp_count));
+  return png;
+}
+
+http::Response Grasps(const http::Request& request, const ServiceConfig& config,
+                      const StiffnessModelPtr& model) {
   const auto start = Clock::now();
-  auto parsed = ParseGraspRequest(request, config);
+  auto parsed = ParseGraspRequest(request, config, model != nullptr);
   if (!parsed.ok()) return ErrorToResponse(parsed.error());
   const GraspRequest& in = parsed.value();
+  const DepthUpload& up = in.upload;
   const double decode_ms = MillisecondsSince(start);
-  if (in.output == OutputFormat::kPng && !in.draw_grasps) {
+  const bool png = in.output == OutputFormat::kPng;
+  if (png && !in.draw_grasps && in.overlay == OverlayBackground::kDepth) {
     // The picture alone needs no planning; the client asks for the grasps separately.
-    http::Response png =
-        http::Response::Bytes(200, "image/png", io::EncodePng(io::ColorizeDepth(in.depth)));
-    png.set_header("X-Grasp-Count", "0");
-    return png;
+    return PngResponse(io::ColorizeDepth(up.depth), 0);
   }
 
   const auto preprocess_start = Clock::now();
-  auto scene = core::Preprocess(in.depth, in.camera);
-  if (!scene.ok()) return ErrorToResponse(scene.error());
+  auto preprocessed = core::Preprocess(up.depth, up.camera);
+  if (!preprocessed.ok()) return ErrorToResponse(preprocessed.error());
+  const core::Scene& scene = preprocessed.value();
   const double preprocess_ms = MillisecondsSince(preprocess_start);
 
+  // The map serves the stiffness strategy, the stiffness overlay and every grasp's
+  // mean_stiffness, so it is computed whenever a model is loaded.
+  const auto stiffness_start = Clock::now();
+  cv::Mat1f stiffness;
+  if (model) stiffness = model->PredictScene(scene);
+  const double stiffness_ms = MillisecondsSince(stiffness_start);
+  if (png && !in.draw_grasps) {
+    return PngResponse(io::ColorizeStiffness(stiffness, models::kBackgroundThreshold), 0);
+  }
+
   const auto detect_start = Clock::now();
-  const std::vector<core::Grasp> grasps =
-      core::DetectGraspsFge(scene.value(), in.camera, in.gripper, in.fge);
+  std::vector<core::Grasp> grasps;
+  if (in.strategy == GraspStrategy::kStiffness) {
+    core::StiffnessFgeParams params;
+    params.fge = in.fge;
+    grasps = core::DetectGraspsStiffness(scene, up.camera, stiffness, in.gripper, params);
+  } else {
+    grasps = core::DetectGraspsFge(scene, up.camera, in.gripper, in.fge);
+    if (model) {
+      for (core::Grasp& g : grasps) g.mean_stiffness = core::ContactMeanStiffness(scene, stiffness, g);
+    }
+  }
   const double detect_ms = MillisecondsSince(detect_start);
 
-  if (in.output == OutputFormat::kPng) {
-    http::Response png = http::Response::Bytes(
-        200, "image/png", io::EncodePng(io::RenderGraspOverlay(in.depth, grasps)));
-    png.set_header("X-Grasp-Count", std::to_string(grasps.size()));
-    return png;
+  if (png) {
+    const cv::Mat3b background = in.overlay == OverlayBackground::kStiffness
+                                     ? io::ColorizeStiffness(stiffness, models::kBackgroundThreshold)
+                                     : io::ColorizeDepth(up.depth);
+    return PngResponse(io::DrawGrasps(background, grasps), grasps.size());
   }
   json list = json::array();
   for (std::size_t i = 0; i < grasps.size(); ++i) {
     list.push_back(GraspToJson(grasps[i], static_cast<int>(i) + 1));
   }
-  const core::Scene& s = scene.value();
-  json camera = CameraToJson(in.camera);
-  camera["source"] = in.camera_source;
+  json camera = CameraToJson(up.camera);
+  camera["source"] = up.camera_source;
+  json timing = {{"decode", decode_ms}, {"preprocess", preprocess_ms}};
+  if (model) timing["stiffness"] = stiffness_ms;
+  timing["detect"] = detect_ms;
+  timing["total"] = MillisecondsSince(start);
   json body = {
-      {"strategy", "fge"},
+      {"strategy", StrategyName(in.strategy)},
+      {"stiffness_model", model ? json("pix2stiffness") : json()},
       {"image",
-       {{"width", in.depth.width()},
-        {"height", in.depth.height()},
-        {"format", io::DepthFormatName(in.depth_format)},
-        {"missing_fraction", s.missing_fraction}}},
+       {{"width", up.depth.width()},
+        {"height", up.depth.height()},
+        {"format", io::DepthFormatName(up.depth_format)},
+        {"missing_fraction", scene.missing_fraction}}},
       {"camera", camera},
-      {"floor", {{"normal", {s.floor.n[0], s.floor.n[1], s.floor.n[2]}}, {"d_m", s.floor.d}}},
+      {"floor",
+       {{"normal", {scene.floor.n[0], scene.floor.n[1], scene.floor.n[2]}},
+        {"d_m", scene.floor.d}}},
       {"gripper", GripperToJson(in.gripper)},
       {"grasps", list},
-      {"timing_ms",
-       {{"decode", decode_ms},
-        {"preprocess", preprocess_ms},
-        {"detect", detect_ms},
-        {"total", MillisecondsSince(start)}}},
+      {"timing_ms", timing},
   };
   return http::Response::Json(200, body.dump());
+}
+
+// POST /v1/stiffness: the model's map of the uploaded depth, same size as the input.
+http::Response Stiffness(const http::Request& request, const ServiceConfig& config,
+                         const StiffnessModelPtr& model) {
+  if (!model) {
+    return ErrorToResponse(core::MakeError(
+        core::ErrorCode::kUnavailable,
+        "no stiffness model is loaded: start the server with --stiffness-model FILE (the shipped "
+        "model is models/pix2stiffness.pt)",
+        "model"));
+  }
+  auto parsed = ParseStiffnessRequest(request, config);
+  if (!parsed.ok()) return ErrorToResponse(parsed.error());
+  const StiffnessRequest& in = parsed.value();
+  const auto start = Clock::now();
+  auto map = model->Predict(in.upload.depth, in.upload.camera);
+  if (!map.ok()) return ErrorToResponse(map.error());
+  const double model_ms = MillisecondsSince(start);
+  const cv::Mat1f& s = map.value();
+
+  http::Response out;
+  switch (in.format) {
+    case StiffnessFormat::kPng8: {
+      cv::Mat levels;
+      s.convertTo(levels, CV_8U, 255.0);  // rounds and saturates
+      out = http::Response::Bytes(200, "image/png", io::EncodePng(levels));
+      break;
+    }
+    case StiffnessFormat::kPng16: {
+      cv::Mat levels;
+      s.convertTo(levels, CV_16U, 65535.0);
+      out = http::Response::Bytes(200, "image/png", io::EncodePng(levels));
+      break;
+    }
+    case StiffnessFormat::kNpy:
+      out = http::Response::Bytes(200, "application/x-npy", io::EncodeNpy(s));
+      break;
+    case StiffnessFormat::kColor:
+      out = http::Response::Bytes(200, "image/png",
+                                  io::EncodePng(io::ColorizeStiffness(s, models::kBackgroundThreshold)));
+      break;
+  }
+  out.set_header("Server-Timing", "model;dur=" + std::to_string(model_ms));
+  return out;
 }
 
 const char* MeshContentType(mesh::MeshFormat format) {
@@ -282,14 +376,20 @@ http::Response ErrorToResponse(const core::Error& error) {
 
 http::Router BuildRouter(const ServiceConfig& config) { return BuildRouter(config, nullptr); }
 
-http::Router BuildRouter(const ServiceConfig& config,
-                         std::shared_ptr<robot::CommandTracker> robot) {
+http::Router BuildRouter(const ServiceConfig& config, std::shared_ptr<robot::CommandTracker> robot,
+                         StiffnessModelPtr stiffness_model) {
   http::Router router;
   const bool robot_running = robot != nullptr;
   router.Add("GET", "/healthz", [](const http::Request&) { return Healthz(); });
-  router.Add("GET", "/v1/info",
-             [config, robot_running](const http::Request&) { return Info(config, robot_running); });
-  router.Add("POST", "/v1/grasps", [config](const http::Request& r) { return Grasps(r, config); });
+  router.Add("GET", "/v1/info", [config, robot_running, stiffness_model](const http::Request&) {
+    return Info(config, robot_running, stiffness_model);
+  });
+  router.Add("POST", "/v1/grasps", [config, stiffness_model](const http::Request& r) {
+    return Grasps(r, config, stiffness_model);
+  });
+  router.Add("POST", "/v1/stiffness", [config, stiffness_model](const http::Request& r) {
+    return Stiffness(r, config, stiffness_model);
+  });
   router.Add("POST", "/v1/fractals",
              [config](const http::Request& r) { return Fractals(r, config); });
 

@@ -162,6 +162,7 @@ std::map<std::string, std::map<std::string, Setter>> Sections(ServiceConfig& c) 
        {{"max_points", Number(&c.max_fractal_points, 100, 1e6)},
         {"max_attempts", Number(&c.max_fractal_attempts, 1, 1e7)}}},
       {"web", {{"root", String(&c.web_root)}}},
+      {"models", {{"stiffness", String(&c.stiffness_model)}}},
       {"robot",
        {{"enabled", Bool(&c.robot.enabled)},
         {"domain_id", Number(&c.robot.domain_id, 0, 232)},
@@ -308,6 +309,7 @@ core::Result<ServiceConfig> ApplyConfigJson(ServiceConfig config, const std::str
 core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config) {
   if (const char* host = std::getenv("SOFTGRASP_HOST")) config.server.host = host;
   if (const char* web_root = std::getenv("SOFTGRASP_WEB_ROOT")) config.web_root = web_root;
+  if (const char* model = std::getenv("SOFTGRASP_STIFFNESS_MODEL")) config.stiffness_model = model;
   struct IntVar {
     const char* name;
     std::function<void(long long)> set;
@@ -350,7 +352,7 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
       return out;
     }
     if (a == "--host" || a == "--port" || a == "--config" || a == "--workers" ||
-        a == "--web-root") {
+        a == "--web-root" || a == "--stiffness-model") {
       if (i + 1 >= args.size()) {
         return MakeError(ErrorCode::kInvalidArgument, a + " needs a value", a);
       }
@@ -373,6 +375,9 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
   if (const auto host = flags.find("--host"); host != flags.end())
     config.server.host = host->second;
   if (const auto web = flags.find("--web-root"); web != flags.end()) config.web_root = web->second;
+  if (const auto model = flags.find("--stiffness-model"); model != flags.end()) {
+    config.stiffness_model = model->second;
+  }
   for (const char* name : {"--port", "--workers"}) {
     const auto flag = flags.find(name);
     if (flag == flags.end()) continue;
@@ -395,14 +400,16 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
 
 std::string UsageText() {
   return "usage: softgrasp-server [--host HOST] [--port PORT] [--workers N] [--config FILE]\n"
-         "                        [--web-root DIR]\n"
+         "                        [--web-root DIR] [--stiffness-model FILE|none]\n"
          "  --port 0 picks a free port; the chosen address is printed as\n"
          "  'listening on http://HOST:PORT'. --web-root: the built web page served at GET /\n"
-         "  (default: ../web next to the executable's folder). Environment: SOFTGRASP_HOST,\n"
+         "  (default: ../web next to the executable's folder). --stiffness-model: the\n"
+         "  pix2stiffness model for /v1/stiffness and strategy=stiffness (default: the shipped\n"
+         "  ../models/pix2stiffness.pt; 'none' serves without one). Environment: SOFTGRASP_HOST,\n"
          "  SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,\n"
-         "  SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT; robot endpoints:\n"
-         "  SOFTGRASP_ROBOT_ENABLED, SOFTGRASP_ROBOT_TOKENS, SOFTGRASP_ROBOT_DOMAIN_ID,\n"
-         "  SOFTGRASP_ROBOT_DDS_CONFIG, SOFTGRASP_ROBOT_JOURNAL_DIR,\n"
+         "  SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT, SOFTGRASP_STIFFNESS_MODEL.\n"
+         "  Robot endpoints: SOFTGRASP_ROBOT_ENABLED, SOFTGRASP_ROBOT_TOKENS,\n"
+         "  SOFTGRASP_ROBOT_DOMAIN_ID, SOFTGRASP_ROBOT_DDS_CONFIG, SOFTGRASP_ROBOT_JOURNAL_DIR,\n"
          "  SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S (docs/robot-api.md).\n"
          "  Precedence: flags > environment > config file > defaults (docs/configuration.md).\n";
 }
@@ -450,6 +457,7 @@ std::string ConfigToJson(const ServiceConfig& c) {
       {"fractals",
        {{"max_points", c.max_fractal_points}, {"max_attempts", c.max_fractal_attempts}}},
       {"web", {{"root", c.web_root}}},
+      {"models", {{"stiffness", c.stiffness_model}}},
       {"robot",
        {{"enabled", c.robot.enabled},
         {"domain_id", c.robot.domain_id},
@@ -499,6 +507,17 @@ std::string DefaultWebRoot(const std::string& executable_path) {
     if (fs::is_regular_file(candidate / "index.html", error)) return candidate.string();
   }
   return candidates[0].string();
+}
+
+std::string DefaultStiffnessModel(const std::string& executable_path) {
+  namespace fs = std::filesystem;
+  const fs::path prefix = fs::path(executable_path).lexically_normal().parent_path().parent_path();
+  const fs::path relative = fs::path("models") / "pix2stiffness.pt";
+  for (const fs::path& candidate : {prefix / relative, prefix / "share" / "softgrasp" / relative}) {
+    std::error_code error;
+    if (fs::is_regular_file(candidate, error)) return candidate.string();
+  }
+  return "none";
 }
 
 }  // namespace softgrasp::rest

@@ -45,6 +45,10 @@ struct ServiceConfig {
   /// Folder of the built web page served at GET / and /assets/ (scripts/build.sh writes it to
   /// <build>/web). Empty: softgrasp-server uses DefaultWebRoot() next to its executable.
   std::string web_root;
+  /// pix2stiffness model file (docs/stiffness.md) for POST /v1/stiffness and strategy=stiffness.
+  /// Empty: softgrasp-server uses DefaultStiffnessModel() next to its executable; "none": no
+  /// model (those requests answer 503 / 400, and strategy=fge is the default).
+  std::string stiffness_model;
   RobotConfig robot;
 };
 
@@ -59,12 +63,13 @@ std::string DefaultJournalDir();
 core::Result<ServiceConfig> ApplyConfigJson(ServiceConfig config, const std::string& json_text);
 
 /// Applies SOFTGRASP_HOST, SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,
-/// SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT, and the robot settings SOFTGRASP_ROBOT_ENABLED,
+/// SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT, SOFTGRASP_STIFFNESS_MODEL, and the robot settings SOFTGRASP_ROBOT_ENABLED,
 /// SOFTGRASP_ROBOT_DOMAIN_ID, SOFTGRASP_ROBOT_DDS_CONFIG, SOFTGRASP_ROBOT_TOKENS (comma-separated),
 /// SOFTGRASP_ROBOT_JOURNAL_DIR, SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S from the environment.
 core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config);
 
-/// Parses argv: --host H, --port P, --config FILE, --workers N, --web-root DIR, --help. The
+/// Parses argv: --host H, --port P, --config FILE, --workers N, --web-root DIR,
+/// --stiffness-model FILE|none, --help. The
 /// config file is applied first, then the environment, then the other flags. `help` is set for
 /// --help.
 struct CommandLine {
@@ -80,6 +85,12 @@ std::string UsageText();
 /// if it holds an index.html, else "<prefix>/share/softgrasp/web" (an installed layout) if that
 /// does, else "<prefix>/web".
 std::string DefaultWebRoot(const std::string& executable_path);
+
+/// The shipped model when no model is configured, given the server executable's path
+/// <prefix>/<bin>/softgrasp-server: "<prefix>/models/pix2stiffness.pt" (the build tree, where the
+/// build copies it) if it exists, else "<prefix>/share/softgrasp/models/pix2stiffness.pt" if that
+/// does, else "none".
+std::string DefaultStiffnessModel(const std::string& executable_path);
 
 /// The effective configuration as JSON, with the robot tokens masked.
 std::string ConfigToJson(const ServiceConfig& config);

@@ -81,6 +81,56 @@ TEST(OpenApiContractTest, ResponsesMatchTheirSchemas) {
             std::vector<std::string>{});
 }
 
+TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
+  const json spec = LoadSpec();
+  const SchemaValidator validator(spec);
+  const auto upload = [] {
+    return std::vector<testing::FormPart>{
+        {"depth",
+         testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")),
+         "d.npy"},
+        {"intrinsics",
+         testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")),
+         "p.intr"}};
+  };
+  const json& error_schema = spec["components"]["schemas"]["Error"];
+  testing::RunningServer with_model({}, nullptr, nullptr, testing::ShippedStiffnessModel());
+
+  const auto info = with_model.Send(testing::RawRequest("GET", "/v1/info"));
+  ASSERT_EQ(info.status, 200);
+  EXPECT_EQ(validator.Validate(json::parse(info.body),
+                               spec["components"]["schemas"]["Info"]),
+            std::vector<std::string>{});
+  const auto grasps = with_model.Send(testing::MultipartRequest("/v1/grasps", upload()));
+  ASSERT_EQ(grasps.status, 200) << grasps.body;
+  const json body = json::parse(grasps.body);
+  ASSERT_FALSE(body["grasps"].empty());
+  EXPECT_EQ(validator.Validate(body, spec["components"]["schemas"]["GraspResponse"]),
+            std::vector<std::string>{});
+
+  const json& stiffness_200 = spec["paths"]["/v1/stiffness"]["post"]["responses"]["200"];
+  for (const auto& [format, type] : std::vector<std::pair<std::string, std::string>>{
+           {"png8", "image/png"}, {"png16", "image/png"}, {"npy", "application/x-npy"},
+           {"color", "image/png"}}) {
+    auto parts = upload();
+    parts.push_back({"format", format, ""});
+    const auto reply = with_model.Send(testing::MultipartRequest("/v1/stiffness", parts));
+    EXPECT_EQ(reply.status, 200) << format;
+    EXPECT_EQ(reply.header("Content-Type").value_or(""), type) << format;
+    EXPECT_TRUE(stiffness_200["content"].contains(type)) << type;
+  }
+  const auto bad = with_model.Send(testing::MultipartRequest("/v1/stiffness", {{"format", "gif", ""}}));
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(validator.Validate(json::parse(bad.body), error_schema), std::vector<std::string>{});
+
+  testing::RunningServer without_model;
+  const auto unavailable = without_model.Send(testing::MultipartRequest("/v1/stiffness", upload()));
+  EXPECT_EQ(unavailable.status, 503);
+  EXPECT_EQ(validator.Validate(json::parse(unavailable.body), error_schema),
+            std::vector<std::string>{});
+  EXPECT_TRUE(spec["paths"]["/v1/stiffness"]["post"]["responses"].contains("503"));
+}
+
 TEST(OpenApiContractTest, DisabledRobotRoutesAnswerTheDocumented503) {
   const json spec = LoadSpec();
   const SchemaValidator validator(spec);

@@ -46,7 +46,7 @@ inline json LoadSpec() {
 }
 
 // A small validator for the JSON Schema subset openapi.yaml uses: $ref, type, required,
-// properties, items, enum, minItems, maxItems. Appends one line per violation.
+// properties, items, enum, minItems, maxItems, nullable. Appends one line per violation.
 class SchemaValidator {
  public:
   explicit SchemaValidator(json spec) : spec_(std::move(spec)) {}
@@ -67,6 +67,7 @@ class SchemaValidator {
   void Check(const json& value, const json& raw_schema, const std::string& at,
              std::vector<std::string>& problems) const {
     const json& schema = Resolve(raw_schema);
+    if (value.is_null() && schema.value("nullable", false)) return;
     if (schema.contains("type")) {
       const std::string type = schema["type"];
       const bool ok =

@@ -134,17 +134,29 @@ inline std::string RawRequest(const std::string& method, const std::string& targ
   return r + "\r\n" + body;
 }
 
+/// The shipped pix2stiffness model (models/pix2stiffness.pt), loaded once per test program.
+inline std::shared_ptr<const models::StiffnessModel> ShippedStiffnessModel() {
+  static const std::shared_ptr<const models::StiffnessModel> model = [] {
+    auto loaded =
+        models::StiffnessModel::Load(std::string(SOFTGRASP_SOURCE_DIR) + "/models/pix2stiffness.pt");
+    if (!loaded.ok()) throw std::runtime_error(loaded.error().message);
+    return std::make_shared<const models::StiffnessModel>(std::move(loaded).value());
+  }();
+  return model;
+}
+
 /// A running server for one test.
 class RunningServer {
  public:
   explicit RunningServer(ServiceConfig config = {},
                          std::shared_ptr<robot::CommandTracker> robot = nullptr,
-                         std::function<void(const std::string&)> access_log = nullptr)
+                         std::function<void(const std::string&)> access_log = nullptr,
+                         std::shared_ptr<const models::StiffnessModel> stiffness_model = nullptr)
       : config_(std::move(config)) {
     config_.server.host = "127.0.0.1";
     config_.server.port = 0;
     config_.server.access_log = access_log ? std::move(access_log) : [](const std::string&) {};
-    router_ = BuildRouter(config_, std::move(robot));
+    router_ = BuildRouter(config_, std::move(robot), std::move(stiffness_model));
     server_ = std::make_unique<http::Server>(
         config_.server, [this](http::Request& r) { return router_.Dispatch(r); });
     server_->Start();

@@ -1,5 +1,6 @@
-#include "service/rest/grasp_request.h"
+#include "service/rest/depth_request.h"
 
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -155,71 +156,23 @@ core::Result<core::Camera> ResolveCamera(const RequestFields& fields, const Serv
   return camera;
 }
 
-core::Result<OutputFormat> ResolveOutput(const http::Request& request,
-                                         const RequestFields& fields) {
-  if (const auto f = fields.values.find("format"); f != fields.values.end()) {
-    if (f->second == "json") return OutputFormat::kJson;
-    if (f->second == "png") return OutputFormat::kPng;
-    return MakeError(ErrorCode::kInvalidArgument, "format must be 'json' or 'png'", "format");
+// Fields every depth upload may carry besides the image: the intrinsics and the PNG unit.
+bool IsUploadField(const std::string& key) {
+  if (key == "png_unit_m") return true;
+  for (const char* k : kIntrinsicKeys) {
+    if (key == k) return true;
   }
-  const std::string accept(request.header("Accept").value_or(""));
-  if (accept.find("image/png") != std::string::npos &&
-      accept.find("application/json") == std::string::npos) {
-    return OutputFormat::kPng;
-  }
-  return OutputFormat::kJson;
+  return false;
 }
 
-}  // namespace
-
-core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
-                                             const ServiceConfig& config) {
-  auto collected = CollectFields(request);
-  if (!collected.ok()) return collected.error();
-  const RequestFields& fields = collected.value();
-
-  GraspRequest out;
-  out.gripper = config.default_gripper;
-  out.fge = config.fge;
-
+core::Result<DepthUpload> DecodeUpload(const RequestFields& fields, const ServiceConfig& config) {
   double png_unit_m = config.png_unit_m;
-  for (const auto& [key, text] : fields.values) {
-    if (key == "format" || key == "strategy" || key == "draw") continue;
-    if (key == "png_unit_m") {
-      auto v = ParseNumber(key, text, 1e-6, 1.0);
-      if (!v.ok()) return v.error();
-      png_unit_m = v.value();
-      continue;
-    }
-    bool intrinsic = false;
-    for (const char* k : kIntrinsicKeys) intrinsic = intrinsic || key == k;
-    if (intrinsic) continue;
-    const auto option = NumericOptions().find(key);
-    if (option == NumericOptions().end()) {
-      return MakeError(ErrorCode::kInvalidArgument, "unknown field '" + key + "'", key);
-    }
-    auto v = ParseNumber(key, text, option->second.min, option->second.max);
+  if (const auto unit = fields.values.find("png_unit_m"); unit != fields.values.end()) {
+    auto v = ParseNumber("png_unit_m", unit->second, 1e-6, 1.0);
     if (!v.ok()) return v.error();
-    if (option->second.integer && v.value() != std::floor(v.value())) {
-      return MakeError(ErrorCode::kInvalidArgument, key + " must be an integer", key);
-    }
-    option->second.apply(out, v.value());
+    png_unit_m = v.value();
   }
-  if (const auto s = fields.values.find("strategy");
-      s != fields.values.end() && s->second != "fge") {
-    return MakeError(ErrorCode::kInvalidArgument,
-                     "strategy must be 'fge' (no stiffness model is loaded)", "strategy");
-  }
-  auto output = ResolveOutput(request, fields);
-  if (!output.ok()) return output.error();
-  out.output = output.value();
-  if (const auto d = fields.values.find("draw"); d != fields.values.end()) {
-    if (d->second != "grasps" && d->second != "none") {
-      return MakeError(ErrorCode::kInvalidArgument, "draw must be 'grasps' or 'none'", "draw");
-    }
-    out.draw_grasps = d->second == "grasps";
-  }
-
+  DepthUpload out;
   auto format = io::SniffDepthFormat(*fields.depth_bytes);
   if (!format.ok()) return format.error();
   out.depth_format = format.value();
@@ -233,6 +186,127 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   auto camera = ResolveCamera(fields, config, out.depth, &out.camera_source);
   if (!camera.ok()) return camera.error();
   out.camera = camera.value();
+  return out;
+}
+
+// A field with a fixed set of values; `names[i]` maps to `values[i]`.
+template <class T, std::size_t N>
+core::Result<T> ParseChoice(const RequestFields& fields, const std::string& key, T fallback,
+                            const std::array<const char*, N>& names,
+                            const std::array<T, N>& values) {
+  const auto f = fields.values.find(key);
+  if (f == fields.values.end()) return fallback;
+  std::string expected;
+  for (std::size_t i = 0; i < N; ++i) {
+    if (f->second == names[i]) return values[i];
+    expected += std::string(i == 0 ? "" : (i + 1 == N ? " or " : ", ")) + "'" + names[i] + "'";
+  }
+  return MakeError(ErrorCode::kInvalidArgument,
+                   key + " must be " + expected + ", got '" + f->second + "'", key);
+}
+
+core::Result<OutputFormat> ResolveOutput(const http::Request& request,
+                                         const RequestFields& fields) {
+  if (fields.values.count("format")) {
+    return ParseChoice<OutputFormat, 2>(fields, "format", OutputFormat::kJson, {"json", "png"},
+                                        {OutputFormat::kJson, OutputFormat::kPng});
+  }
+  const std::string accept(request.header("Accept").value_or(""));
+  if (accept.find("image/png") != std::string::npos &&
+      accept.find("application/json") == std::string::npos) {
+    return OutputFormat::kPng;
+  }
+  return OutputFormat::kJson;
+}
+
+}  // namespace
+
+const char* StrategyName(GraspStrategy strategy) {
+  return strategy == GraspStrategy::kStiffness ? "stiffness" : "fge";
+}
+
+core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
+                                             const ServiceConfig& config,
+                                             bool stiffness_model_loaded) {
+  auto collected = CollectFields(request);
+  if (!collected.ok()) return collected.error();
+  const RequestFields& fields = collected.value();
+
+  GraspRequest out;
+  out.gripper = config.default_gripper;
+  out.fge = config.fge;
+
+  for (const auto& [key, text] : fields.values) {
+    if (key == "format" || key == "strategy" || key == "draw" || key == "overlay" ||
+        IsUploadField(key)) {
+      continue;
+    }
+    const auto option = NumericOptions().find(key);
+    if (option == NumericOptions().end()) {
+      return MakeError(ErrorCode::kInvalidArgument, "unknown field '" + key + "'", key);
+    }
+    auto v = ParseNumber(key, text, option->second.min, option->second.max);
+    if (!v.ok()) return v.error();
+    if (option->second.integer && v.value() != std::floor(v.value())) {
+      return MakeError(ErrorCode::kInvalidArgument, key + " must be an integer", key);
+    }
+    option->second.apply(out, v.value());
+  }
+  auto strategy = ParseChoice<GraspStrategy, 2>(
+      fields, "strategy", stiffness_model_loaded ? GraspStrategy::kStiffness : GraspStrategy::kFge,
+      {"fge", "stiffness"}, {GraspStrategy::kFge, GraspStrategy::kStiffness});
+  if (!strategy.ok()) return strategy.error();
+  out.strategy = strategy.value();
+  auto overlay = ParseChoice<OverlayBackground, 2>(
+      fields, "overlay", OverlayBackground::kDepth, {"depth", "stiffness"},
+      {OverlayBackground::kDepth, OverlayBackground::kStiffness});
+  if (!overlay.ok()) return overlay.error();
+  out.overlay = overlay.value();
+  if (!stiffness_model_loaded) {
+    if (out.strategy == GraspStrategy::kStiffness) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "strategy 'stiffness' needs a stiffness model and none is loaded (start "
+                       "the server with --stiffness-model); use strategy 'fge'",
+                       "strategy");
+    }
+    if (out.overlay == OverlayBackground::kStiffness) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "overlay 'stiffness' needs a stiffness model and none is loaded", "overlay");
+    }
+  }
+  auto output = ResolveOutput(request, fields);
+  if (!output.ok()) return output.error();
+  out.output = output.value();
+  auto draw = ParseChoice<bool, 2>(fields, "draw", true, {"grasps", "none"}, {true, false});
+  if (!draw.ok()) return draw.error();
+  out.draw_grasps = draw.value();
+
+  auto upload = DecodeUpload(fields, config);
+  if (!upload.ok()) return upload.error();
+  out.upload = std::move(upload).value();
+  return out;
+}
+
+core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& request,
+                                                     const ServiceConfig& config) {
+  auto collected = CollectFields(request);
+  if (!collected.ok()) return collected.error();
+  const RequestFields& fields = collected.value();
+  for (const auto& [key, text] : fields.values) {
+    if (key != "format" && !IsUploadField(key)) {
+      return MakeError(ErrorCode::kInvalidArgument, "unknown field '" + key + "'", key);
+    }
+  }
+  StiffnessRequest out;
+  auto format = ParseChoice<StiffnessFormat, 4>(
+      fields, "format", StiffnessFormat::kPng8, {"png8", "png16", "npy", "color"},
+      {StiffnessFormat::kPng8, StiffnessFormat::kPng16, StiffnessFormat::kNpy,
+       StiffnessFormat::kColor});
+  if (!format.ok()) return format.error();
+  out.format = format.value();
+  auto upload = DecodeUpload(fields, config);
+  if (!upload.ok()) return upload.error();
+  out.upload = std::move(upload).value();
   return out;
 }
 
