@@ -1,6 +1,8 @@
 // Whole POST /v1/grasps on loopback: a real server in this process, a real socket per request,
 // a real 640x480 float32 NPY (Primesense frame). Baseline in the same run: GET /healthz over the
-// same path, so the ratio separates HTTP cost from grasp detection.
+// same path, so the ratio separates HTTP cost from grasp detection. With the shipped pix2stiffness
+// model: the stiffness strategy (the default then), classic FGE with mean stiffness, and the map
+// alone (POST /v1/stiffness).
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>
 
@@ -14,18 +16,50 @@ testing::RunningServer& Server() {
   return server;
 }
 
-void BM_PostGraspsPrimesenseNpy(benchmark::State& state) {
-  const std::string request = testing::MultipartRequest(
-      "/v1/grasps",
-      {{"depth", testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")), "d.npy"},
-       {"intrinsics", testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")), "p.intr"}});
+testing::RunningServer& ServerWithModel() {
+  static testing::RunningServer server({}, nullptr, nullptr, testing::ShippedStiffnessModel());
+  return server;
+}
+
+std::string PrimesenseUpload(const std::string& target,
+                             std::vector<testing::FormPart> fields = {}) {
+  std::vector<testing::FormPart> parts = {
+      {"depth", testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")), "d.npy"},
+      {"intrinsics", testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")), "p.intr"}};
+  parts.insert(parts.end(), fields.begin(), fields.end());
+  return testing::MultipartRequest(target, parts);
+}
+
+void Run(benchmark::State& state, testing::RunningServer& server, const std::string& request) {
   for (auto _ : state) {
-    const auto reply = Server().Send(request);
-    if (reply.status != 200) state.SkipWithError("POST /v1/grasps did not answer 200");
+    const auto reply = server.Send(request);
+    if (reply.status != 200) state.SkipWithError("the request did not answer 200");
     benchmark::DoNotOptimize(reply.body.data());
   }
 }
+
+void BM_PostGraspsPrimesenseNpy(benchmark::State& state) {
+  Run(state, Server(), PrimesenseUpload("/v1/grasps"));
+}
 BENCHMARK(BM_PostGraspsPrimesenseNpy)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Model map + stiffness-aware FGE (the default strategy with a model).
+void BM_PostGraspsStiffnessStrategy(benchmark::State& state) {
+  Run(state, ServerWithModel(), PrimesenseUpload("/v1/grasps", {{"strategy", "stiffness", ""}}));
+}
+BENCHMARK(BM_PostGraspsStiffnessStrategy)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Classic FGE plus the model map for each grasp's mean_stiffness.
+void BM_PostGraspsFgeWithModel(benchmark::State& state) {
+  Run(state, ServerWithModel(), PrimesenseUpload("/v1/grasps", {{"strategy", "fge", ""}}));
+}
+BENCHMARK(BM_PostGraspsFgeWithModel)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The map alone as an 8-bit PNG.
+void BM_PostStiffnessPng8(benchmark::State& state) {
+  Run(state, ServerWithModel(), PrimesenseUpload("/v1/stiffness"));
+}
+BENCHMARK(BM_PostStiffnessPng8)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_GetHealthz(benchmark::State& state) {
   const std::string request = testing::RawRequest("GET", "/healthz");
@@ -40,7 +74,9 @@ BENCHMARK(BM_GetHealthz)->Unit(benchmark::kMillisecond)->UseRealTime();
 }  // namespace softgrasp::rest
 
 int main(int argc, char** argv) {
-  cv::setNumThreads(1);  // one core for the engine, as the goal states
+  // One OpenCV thread for the engine, as the FGE goal states; libtorch keeps its default (one
+  // thread per core: 2 here), as in softgrasp-server.
+  cv::setNumThreads(1);
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
