@@ -192,6 +192,8 @@ struct FastFge::Workspace {
   cv::Mat1f candidate, small, blurred, grasp;
   std::vector<int> strip_contact, strip_tip, strip_palm, strip_seam;
   std::vector<int> row_contact, row_collision;
+  cv::Mat2f region_map;    // Candidates: a pooled map rotated onto the canvas
+  cv::Mat2d region_sums;   // Candidates: its integral image around a cluster's candidates
 };
 
 struct FastFge::Canvas {
@@ -827,6 +829,171 @@ std::vector<std::vector<LocalMaximum>> FastFge::LocalMaxima(double angle_rad) {
     for (const CanvasPeak& peak : peaks) {
       const cv::Point2d p = ToImage(canvas, peak.canvas_px);
       result[i].push_back({p.x, p.y, peak.score});
+    }
+  }
+  return result;
+}
+
+namespace {
+
+struct CanvasCandidate {
+  cv::Point canvas_px;
+  float graspability;
+  cv::Vec2d sums;
+};
+
+// `out` (size of `rect`) = `crop_map` at the crop pixels nearest to the canvas pixels of `rect`
+// (zeros outside the crop).
+void RotateNearest(const cv::Mat2f& crop_map, const cv::Matx23d& crop_from_canvas,
+                   const cv::Rect& rect, cv::Mat2f& out) {
+  const cv::Matx23d& t = crop_from_canvas;
+  const cv::Vec2f zero(0, 0);
+  for (int y = 0; y < rect.height; ++y) {
+    const double cy = rect.y + y;
+    double sx = t(0, 0) * rect.x + t(0, 1) * cy + t(0, 2);
+    double sy = t(1, 0) * rect.x + t(1, 1) * cy + t(1, 2);
+    cv::Vec2f* dst = out.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < rect.width; ++x, sx += t(0, 0), sy += t(1, 0)) {
+      const int ix = static_cast<int>(std::floor(sx + 0.5));
+      const int iy = static_cast<int>(std::floor(sy + 0.5));
+      const bool inside = ix >= 0 && iy >= 0 && ix < crop_map.cols && iy < crop_map.rows;
+      dst[x] = inside ? crop_map(iy, ix) : zero;
+    }
+  }
+}
+
+// Bilinear read of `cells` (a blurred map on cells of d x d pixels) at pixel (x, y).
+float CellValue(const cv::Mat1f& cells, int d, int x, int y) {
+  const double fx = std::clamp((x + 0.5) / d - 0.5, 0.0, cells.cols - 1.0);
+  const double fy = std::clamp((y + 0.5) / d - 0.5, 0.0, cells.rows - 1.0);
+  const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+  const int x1 = std::min(x0 + 1, cells.cols - 1), y1 = std::min(y0 + 1, cells.rows - 1);
+  const double ax = fx - x0, ay = fy - y0;
+  const double top = (1 - ax) * cells(y0, x0) + ax * cells(y0, x1);
+  const double bottom = (1 - ax) * cells(y1, x0) + ax * cells(y1, x1);
+  return static_cast<float>((1 - ay) * top + ay * bottom);
+}
+
+// Candidates of one slice inside one cluster (canvas pixels) on the grid of `step` canvas pixels,
+// with their graspability (the candidate map's blur, as in Maps but read bilinearly from the
+// cells) and the box sums of `crop_map` (crop pixels, may be empty) over their closing regions.
+void CandidatesInCluster(const SliceIntegrals& in, const FastFge::SliceWork& w,
+                         const cv::Rect& cluster, const std::vector<cv::Rect>& rois,
+                         const cv::Mat2f& crop_map, const cv::Matx23d& crop_from_canvas, int step,
+                         FastFge::Workspace& ws, std::vector<CanvasCandidate>& out) {
+  cv::Mat1f candidate = View(ws.candidate, cluster.size());
+  candidate.setTo(0);
+  int first_row = cluster.height, last_row = -1;
+  for (const cv::Rect& roi : rois) {
+    if ((roi & cluster) != roi) continue;  // another cluster's
+    for (int y = 0; y < roi.height; ++y) {
+      const int row = roi.y - cluster.y + y;
+      float* dst = candidate.ptr<float>(row) + (roi.x - cluster.x);
+      if (CandidateRow(in, w, roi.y + y, roi.x, roi.width, ws, dst) > 0) {
+        first_row = std::min(first_row, row);
+        last_row = std::max(last_row, row);
+      }
+    }
+  }
+  if (last_row < 0) return;
+  const cv::Rect box = NonZeroBox(candidate, first_row, last_row);
+  const cv::Rect padded = RoundUp(box, w.blur_downscale);
+  cv::Mat1f blur_input = View(ws.grasp, padded.size());
+  blur_input.setTo(0);
+  candidate(box).copyTo(blur_input(cv::Rect(cv::Point(0, 0), box.size())));
+  cv::Mat1f small, blurred;
+  BlurSmall(blur_input, w.blur_sigma_px, w.blur_downscale, ws, small, blurred);
+  // Candidates lie in the canvas' safe rect: their closing regions stay inside the canvas.
+  const int a = w.boxes.contact_half_len, b = w.boxes.half_width;
+  const cv::Point box_tl = cluster.tl() + box.tl();
+  cv::Mat2d sums;
+  if (!crop_map.empty()) {
+    const cv::Rect reach(box_tl.x - a, box_tl.y - b, box.width + 2 * a, box.height + 2 * b);
+    cv::Mat2f map = View(ws.region_map, reach.size());
+    RotateNearest(crop_map, crop_from_canvas, reach, map);
+    sums = View(ws.region_sums, reach.size() + cv::Size(1, 1));
+    cv::integral(map, sums, CV_64F);
+  }
+  const int w_box = 2 * a + 1, h_box = 2 * b + 1;
+  for (int y = 0; y < box.height; ++y) {
+    if ((box_tl.y + y) % step != 0) continue;
+    const float* c = blur_input.ptr<float>(y);
+    for (int x = 0; x < box.width; ++x) {
+      if (!(c[x] > 0) || (box_tl.x + x) % step != 0) continue;
+      cv::Vec2d s(0, 0);
+      if (!sums.empty()) {  // the integral's (x, y) is the closing region's top-left corner
+        s = sums(y + h_box, x + w_box) - sums(y, x + w_box) - sums(y + h_box, x) + sums(y, x);
+      }
+      const float g = std::clamp(CellValue(blurred, w.blur_downscale, x, y), 0.0f, 1.0f);
+      out.push_back({box_tl + cv::Point(x, y), g, s});
+    }
+  }
+}
+
+}  // namespace
+
+cv::Mat2f FastFge::PoolSums(const cv::Mat1f& values, const cv::Mat1b& mask) const {
+  cv::Mat2f out = cv::Mat2f::zeros(crop_.size());
+  if (crop_.empty()) return out;
+  CV_Assert(values.size() == image_size_ && mask.size() == image_size_);
+  const int u0 = std::max(0, crop_.x * scale_);
+  const int u1 = std::min(values.cols, (crop_.x + crop_.width) * scale_);
+  for (int v = 0; v < values.rows; ++v) {
+    const int y = v / scale_ - crop_.y;
+    if (y < 0 || y >= crop_.height) continue;
+    const float* value = values.ptr<float>(v);
+    const std::uint8_t* set = mask.ptr<std::uint8_t>(v);
+    cv::Vec2f* dst = out.ptr<cv::Vec2f>(y);
+    for (int u = u0; u < u1; ++u) {
+      if (!set[u]) continue;
+      cv::Vec2f& d = dst[u / scale_ - crop_.x];
+      d[0] += value[u];
+      d[1] += 1.0f;
+    }
+  }
+  return out;
+}
+
+std::vector<std::vector<FastFge::RegionCandidate>> FastFge::Candidates(
+    double angle_rad, const std::vector<cv::Mat2f>& pooled, int grid_step) {
+  std::vector<std::vector<RegionCandidate>> result(slices_.size());
+  if (crop_.empty()) return result;
+  CV_Assert(grid_step >= 1);
+  last_canvas_.reset();  // MakeCanvas reuses the buffer that a pending turn would read
+  const Canvas canvas = MakeCanvas(angle_rad, false);
+  const TemplateBoxes largest = LargestBoxes(work_);
+  std::vector<IntegralCache> caches;
+  std::size_t next_slot = 0;
+  for (const cv::Rect& group : ObjectGroups(canvas, largest, MaxBlurRadius(work_))) {
+    const int reach_x = largest.finger_outer + 1, reach_y = largest.half_width + 1;
+    const cv::Rect region = cv::Rect(group.x - reach_x, group.y - reach_y,
+                                     group.width + 2 * reach_x, group.height + 2 * reach_y) &
+                            cv::Rect(cv::Point(0, 0), canvas.levels.size());
+    caches.emplace_back(canvas, region, *ws_, next_slot);
+  }
+  const LevelLimits limits{max_level_, max_seam_level_, contact_is_obstacle_};
+  std::vector<CanvasCandidate> found;
+  for (std::size_t i = 0; i < slices_.size(); ++i) {
+    const SliceWork& w = work_[i];
+    if (w.contact_level >= max_contact_level_) continue;  // nothing above the contact height
+    const SliceRegions regions = RegionsOfSlice(canvas, objects_, w);
+    if (regions.clusters.empty()) continue;
+    cv::Mat2f crop_map;
+    if (i < pooled.size() && !pooled[i].empty()) {
+      CV_Assert(pooled[i].size() == crop_.size());
+      crop_map = pooled[i];
+    }
+    found.clear();
+    for (const cv::Rect& cluster : regions.clusters) {
+      IntegralCache& cache = CacheHolding(caches, cluster);
+      const SliceIntegrals in = IntegralsFor(w, cache, cache.region().tl(), limits);
+      CandidatesInCluster(in, w, cluster, regions.rois, crop_map, canvas.crop_from_canvas,
+                          grid_step, *ws_, found);
+    }
+    result[i].reserve(found.size());
+    for (const CanvasCandidate& c : found) {
+      const cv::Point2d p = ToImage(canvas, cv::Point2d(c.canvas_px));
+      result[i].push_back({p.x, p.y, c.graspability, c.sums});
     }
   }
   return result;

@@ -45,6 +45,27 @@ class FastFge {
   /// The three maps of slice `slice_pos` at one angle, at image size (counts in image pixels).
   FgeMaps Maps(double angle_rad, std::size_t slice_pos);
 
+  /// Block sums at work resolution over the crop (zeros outside the image) of `values` where
+  /// `mask` is set (channel 0) and of the mask's pixel count (channel 1); both image size. The
+  /// input of Candidates; sums stay in image-pixel units.
+  cv::Mat2f PoolSums(const cv::Mat1f& values, const cv::Mat1b& mask) const;
+
+  /// A candidate of one slice at one angle with its sums of a pooled map over the closing region.
+  struct RegionCandidate {
+    double u_px = 0;  ///< image pixels (centre of the work pixel's block)
+    double v_px = 0;
+    float graspability = 0;  ///< Maps' blurred candidate map, read bilinearly from its cells
+    cv::Vec2d sums;          ///< box sums of the slice's pooled map over T_t (both channels)
+  };
+  /// Every candidate (A_t >= min contact, no finger/palm collision, no slip, no seam: the
+  /// non-zero pixels of Maps' graspability) of every slice at one angle on the canvas grid of
+  /// `grid_step` work pixels; result[i] is slices()[i]. `pooled[i]` (PoolSums of an image-size
+  /// map; empty or missing: sums 0) is rotated with the level image and read as box sums over
+  /// each candidate's closing region T_t, e.g. S * I_t and I_t for a mean of S over I_t.
+  std::vector<std::vector<RegionCandidate>> Candidates(double angle_rad,
+                                                       const std::vector<cv::Mat2f>& pooled,
+                                                       int grid_step = 1);
+
   /// Per-slice sizes at work resolution and indices into the sorted level list.
   struct SliceWork {
     TemplateBoxes boxes;

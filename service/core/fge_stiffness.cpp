@@ -21,9 +21,6 @@ using fge_detail::StableContacts;
 
 // At most this many contact checks per map, as in classic FGE.
 constexpr int kMaxContactChecksPerMap = 64;
-// Closing regions larger than this many pixels are sampled on every second row and column: the
-// mean stiffness barely changes and the search gets 4x cheaper.
-constexpr int kDenseTemplateMaxPx = 400;
 
 struct Candidate {
   double u_px = 0;
@@ -44,15 +41,15 @@ bool Better(const Candidate& a, const Candidate& b) {
 }
 
 /// Integer offsets of the closing region T_t (pixel-centre rule) at one angle.
-std::vector<cv::Point> ClosingRegionOffsets(double angle_rad, const GripperPx& g, int stride) {
+std::vector<cv::Point> ClosingRegionOffsets(double angle_rad, const GripperPx& g) {
   const double half_len = g.opening_px / 2;
   const double half_w = g.finger_width_px / 2;
   const int reach = static_cast<int>(std::ceil(std::hypot(half_len, half_w))) + 1;
   const double cs = std::cos(angle_rad);
   const double sn = std::sin(angle_rad);
   std::vector<cv::Point> out;
-  for (int dv = -reach; dv <= reach; dv += stride) {
-    for (int du = -reach; du <= reach; du += stride) {
+  for (int dv = -reach; dv <= reach; ++dv) {
+    for (int du = -reach; du <= reach; ++du) {
       const double a = du * cs + dv * sn;
       const double b = -du * sn + dv * cs;
       if (std::abs(a) <= half_len && std::abs(b) <= half_w) out.emplace_back(du, dv);
@@ -85,46 +82,18 @@ struct SliceData {
   cv::Mat1b contact;  // I_t: graspable surface above the contact height
 };
 
-/// Candidates of one (angle, slice) map ranked by the key, NMS, contact check; at most top_k.
-std::vector<Candidate> SelectInMap(const FgeMaps& maps, const SliceData& sd,
-                                   const cv::Mat1f& stiffness, const Scene& scene, double angle_rad,
-                                   int angle_index, int slice_pos,
-                                   const StiffnessFgeParams& params) {
-  const int step = params.candidate_step_px;
-  const int area = static_cast<int>(ClosingRegionOffsets(angle_rad, sd.gripper, 1).size());
-  const auto offsets =
-      ClosingRegionOffsets(angle_rad, sd.gripper, area > kDenseTemplateMaxPx ? 2 : 1);
-  std::vector<Candidate> all;
-  for (int v = 0; v < maps.graspability.rows; v += step) {
-    const float* g = maps.graspability.ptr<float>(v);
-    for (int u = 0; u < maps.graspability.cols; u += step) {
-      if (!(g[u] > 0)) continue;
-      // Eq. 3.6-3.7 as a mean (A_st / A_t): the thesis' clutter ranking, "same as the mean of
-      // stiffness" (eq. 3.14), so region size does not bias it.
-      const double mean = MeanOverOffsets(stiffness, sd.contact, u, v, offsets);
-      if (!std::isfinite(mean)) continue;
-      all.push_back({static_cast<double>(u), static_cast<double>(v),
-                     mean + params.centre_weight * g[u], mean, g[u], angle_index, slice_pos});
-    }
+/// Candidates of one (angle, slice) map with the ranking key; A_st / A_t from the box sums.
+void AddCandidates(const std::vector<fge_detail::FastFge::RegionCandidate>& found,
+                   int angle_index, int slice_pos, double centre_weight,
+                   std::vector<Candidate>& all) {
+  for (const auto& rc : found) {
+    // Eq. 3.6-3.7 as a mean (A_st / A_t): the thesis' clutter ranking, "same as the mean of
+    // stiffness" (eq. 3.14), so region size does not bias it. sums = (A_st, A_t).
+    if (!(rc.sums[1] > 0)) continue;  // no contact pixel at image resolution
+    const double mean = rc.sums[0] / rc.sums[1];
+    all.push_back({rc.u_px, rc.v_px, mean + centre_weight * rc.graspability, mean,
+                   rc.graspability, angle_index, slice_pos});
   }
-  std::sort(all.begin(), all.end(), Better);
-  std::vector<Candidate> kept;
-  int checks = 0;
-  for (const Candidate& c : all) {
-    if (static_cast<int>(kept.size()) >= params.fge.top_k || checks >= kMaxContactChecksPerMap) {
-      break;
-    }
-    const bool suppressed = std::any_of(kept.begin(), kept.end(), [&](const Candidate& k) {
-      return Near(c, k, params.fge.nms_radius_px);
-    });
-    if (suppressed) continue;
-    ++checks;
-    if (StableContacts(scene.height_m, c.u_px, c.v_px, angle_rad, sd.gripper, sd.px_per_m,
-                       sd.slice.tip_height_m)) {
-      kept.push_back(c);
-    }
-  }
-  return kept;
 }
 
 Grasp MakeGrasp(const Candidate& c, const SliceData& sd, const Scene& scene, const Camera& camera,
@@ -184,29 +153,58 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
   cv::patchNaNs(stiffness, 0.0);
   cv::min(cv::max(stiffness, 0.0f), 1.0f, stiffness);
 
+  // Per slice, S * I_t and I_t block-summed to the fast path's resolution: their box sums over a
+  // closing region are A_st and A_t (eq. 3.6-3.8) in image pixels.
+  std::vector<cv::Mat2f> pooled;
+  for (const SliceData& sd : slices) pooled.push_back(fast.PoolSums(stiffness, sd.contact));
+  const int grid_step = std::max(1, params.candidate_step_px / fast.scale());
+
   std::vector<Candidate> all;
   for (int ai = 0; ai < fp.num_angles; ++ai) {
-    const double angle = AngleOf(ai, fp.num_angles);
+    const auto found = fast.Candidates(AngleOf(ai, fp.num_angles), pooled, grid_step);
     for (std::size_t si = 0; si < slices.size(); ++si) {
-      const FgeMaps maps = fast.Maps(angle, si);
-      for (const Candidate& c : SelectInMap(maps, slices[si], stiffness, scene, angle, ai,
-                                            static_cast<int>(si), params)) {
-        all.push_back(c);
-      }
+      AddCandidates(found[si], ai, static_cast<int>(si), params.centre_weight, all);
     }
   }
-  std::sort(all.begin(), all.end(), Better);
+  // Per map (angle, slice): best key first, NMS, contact check, at most top_k kept and
+  // kMaxContactChecksPerMap checks; then the maps' grasps ranked together with NMS across similar
+  // angles. Popping all maps' candidates in one key order gives exactly that while checking only
+  // the candidates that can still make the top_k.
+  struct MapState {
+    int checks = 0;
+    std::vector<Candidate> kept;
+  };
+  std::vector<MapState> maps(static_cast<std::size_t>(fp.num_angles) * slices.size());
+  const auto worse = [](const Candidate& a, const Candidate& b) { return Better(b, a); };
+  std::make_heap(all.begin(), all.end(), worse);
   std::vector<Grasp> grasps;
   std::vector<Candidate> kept;
-  for (const Candidate& c : all) {
-    if (static_cast<int>(kept.size()) >= fp.top_k) break;
+  for (auto end = all.end(); end != all.begin() && static_cast<int>(kept.size()) < fp.top_k;) {
+    std::pop_heap(all.begin(), end, worse);
+    --end;
+    const Candidate& c = *end;
+    const auto slice_pos = static_cast<std::size_t>(c.slice_pos);
+    MapState& map = maps[static_cast<std::size_t>(c.angle_index) * slices.size() + slice_pos];
+    if (static_cast<int>(map.kept.size()) >= fp.top_k || map.checks >= kMaxContactChecksPerMap) {
+      continue;
+    }
+    const bool near_in_map = std::any_of(map.kept.begin(), map.kept.end(), [&](const Candidate& k) {
+      return Near(c, k, fp.nms_radius_px);
+    });
+    if (near_in_map) continue;
+    ++map.checks;
+    const SliceData& sd = slices[slice_pos];
+    if (!StableContacts(scene.height_m, c.u_px, c.v_px, AngleOf(c.angle_index, fp.num_angles),
+                        sd.gripper, sd.px_per_m, sd.slice.tip_height_m)) {
+      continue;
+    }
+    map.kept.push_back(c);
     const bool suppressed = std::any_of(kept.begin(), kept.end(), [&](const Candidate& k) {
       return Near(c, k, fp.nms_radius_px) && SimilarAngle(c, k, fp.num_angles);
     });
     if (suppressed) continue;
     kept.push_back(c);
-    grasps.push_back(
-        MakeGrasp(c, slices[static_cast<std::size_t>(c.slice_pos)], scene, camera, gripper, fp));
+    grasps.push_back(MakeGrasp(c, sd, scene, camera, gripper, fp));
   }
   return grasps;
 }
@@ -219,7 +217,7 @@ double ContactMeanStiffness(const Scene& scene, const cv::Mat1f& stiffness_map,
         "size");
   }
   const GripperPx g{grasp.opening_px, grasp.finger_width_px, grasp.finger_thickness_px};
-  const auto offsets = ClosingRegionOffsets(grasp.angle_rad, g, 1);
+  const auto offsets = ClosingRegionOffsets(grasp.angle_rad, g);
   const cv::Mat1b contact = scene.height_m > static_cast<float>(grasp.contact_height_m);
   cv::Mat1f stiffness = stiffness_map.clone();
   cv::patchNaNs(stiffness, 0.0);

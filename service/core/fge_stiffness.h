@@ -18,7 +18,8 @@ struct StiffnessFgeParams {
   /// Ranking key = mean stiffness + centre_weight * graspability: stiffness comes in 0.1 steps,
   /// so among equally hard regions the more central (FGE's preference) wins. 0 = pure eq. 3.10.
   double centre_weight = 0.05;
-  /// Candidate pixels are evaluated on a grid of this step (image pixels), 1 = every pixel.
+  /// Candidate pixels are evaluated on a grid of this step (image pixels), rounded down to the
+  /// fast FGE's work resolution (a multiple of its scale, at least one work pixel).
   int candidate_step_px = 2;
 };
 
