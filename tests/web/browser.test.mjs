@@ -1,6 +1,8 @@
 // The page in a real browser (Debian's chromium, headless) against the real softgrasp-server:
-// upload a Primesense frame and see its grasps listed and drawn, generate a fractal and see it
-// rendered, see the API's own message for a bad upload, and no console errors anywhere.
+// upload a Primesense frame and see its grasps listed and drawn, over the depth and over the
+// stiffness map of the shipped model, generate a fractal and see it rendered, see the API's own
+// message for a bad upload, and no console errors anywhere. A second server without a stiffness
+// model shows that the page then offers no stiffness view and still finds grasps.
 // Screenshots go to <build>/tests/web/artifacts/. Run by CTest (tests/web/CMakeLists.txt).
 import assert from 'node:assert/strict';
 import { readFile } from 'node:fs/promises';
@@ -16,6 +18,12 @@ const INTRINSICS = path.join(paths.data, 'gqcnn', 'primesense', 'primesense.intr
 const STEP_TIMEOUT_MS = 30_000;
 const GREEN = [0, 255, 0, 255]; // the best grasp, as the service's overlay draws it
 const MAGENTA = [255, 0, 255, 255]; // the grasp selected in the table
+// single_depth_0: the long object in the middle of the frame, which the shipped pix2stiffness
+// model maps as hard (about 0.99), away from where the grasps are drawn (its upper end), and
+// points of the floor/bin that it maps as background (0). Image pixels (u, v).
+const HARD_BAR = [[340, 282], [352, 255], [330, 288], [345, 270]];
+const BACKGROUND = [[100, 100], [500, 150], [20, 300], [600, 250]];
+const MEAN_STIFFNESS_COLUMN = 5; // Show, Rank, Score, Width, Height, Mean stiffness, ...
 
 let server;
 let base;
@@ -34,12 +42,12 @@ after(async () => {
 });
 
 /** A fresh page (own context: no cache shared between tests) with its console watched. */
-async function openPage(viewport = { width: 1280, height: 900 }) {
+async function openPage(viewport = { width: 1280, height: 900 }, at = base) {
   const context = await browser.newContext({ viewport, acceptDownloads: true });
   const page = await context.newPage();
   page.setDefaultTimeout(STEP_TIMEOUT_MS);
   const errors = watchConsole(page);
-  await page.goto(`${base}/`);
+  await page.goto(`${at}/`);
   await page.waitForSelector('body[data-ready="true"]');
   return { context, page, errors };
 }
@@ -70,6 +78,59 @@ function linkedPngPixels(page, selector, points) {
     ctx.drawImage(bitmap, 0, 0);
     return pts.map(([x, y]) => Array.from(ctx.getImageData(Math.round(x), Math.round(y), 1, 1).data));
   }, [selector, points]);
+}
+
+/** Keeps a copy of the canvas pixels in the page; `canvasChange` compares with it. */
+function snapshotCanvas(page, selector) {
+  return page.evaluate((sel) => {
+    const canvas = document.querySelector(sel);
+    window.testSnapshot = canvas.getContext('2d').getImageData(0, 0, canvas.width, canvas.height).data;
+  }, selector);
+}
+
+/** How many pixels of the canvas differ (in RGB) from the last snapshot, of how many. */
+function canvasChange(page, selector) {
+  return page.evaluate((sel) => {
+    const canvas = document.querySelector(sel);
+    const { data } = canvas.getContext('2d').getImageData(0, 0, canvas.width, canvas.height);
+    const old = window.testSnapshot;
+    let differing = 0;
+    for (let i = 0; i < data.length; i += 4) {
+      if (data[i] !== old[i] || data[i + 1] !== old[i + 1] || data[i + 2] !== old[i + 2]) differing += 1;
+    }
+    return { differing, total: data.length / 4 };
+  }, selector);
+}
+
+/** A little-endian float32 C-order NPY (what /v1/stiffness format=npy answers) as rows. */
+function readNpyFloat32(bytes) {
+  assert.equal(bytes.subarray(0, 6).toString('latin1'), '\x93NUMPY');
+  const headerLength = bytes.readUInt16LE(8);
+  const header = bytes.subarray(10, 10 + headerLength).toString('latin1');
+  assert.match(header, /'descr': '<f4'/);
+  assert.match(header, /'fortran_order': False/);
+  const [height, width] = /'shape': \((\d+), (\d+)\)/.exec(header).slice(1).map(Number);
+  const data = new Float32Array(bytes.buffer.slice(bytes.byteOffset + 10 + headerLength,
+    bytes.byteOffset + 10 + headerLength + 4 * width * height));
+  return { width, height, at: (u, v) => data[v * width + u] };
+}
+
+/** The frame and its intrinsics as the page sends them, for requests made from node. */
+async function frameForm(fields = {}) {
+  const form = new FormData();
+  form.append('depth', new Blob([await readFile(FRAME)]), path.basename(FRAME));
+  form.append('intrinsics', new Blob([await readFile(INTRINSICS)]), path.basename(INTRINSICS));
+  for (const [name, value] of Object.entries(fields)) form.append(name, value);
+  return form;
+}
+
+/** Uploads the frame and its .intr with the file pickers and waits for the results. */
+async function findGrasps(page) {
+  await page.setInputFiles('#depth-file', FRAME);
+  await page.setInputFiles('#intrinsics-file', INTRINSICS);
+  await page.click('#grasp-submit');
+  await page.waitForSelector('#grasps[data-state="done"]');
+  return page.evaluate(async () => (await fetch(document.querySelector('#download-json').href)).json());
 }
 
 /** Pixels of the 3D preview that differ from its background (the corner pixel). */
@@ -168,6 +229,89 @@ describe('softgrasp page in chromium', () => {
     await context.close();
   });
 
+  it('shows the stiffness map of the shipped model under the grasps, and mean stiffness', async () => {
+    const info = await (await fetch(`${base}/v1/info`)).json();
+    assert.deepEqual(info.models.map((m) => [m.name, m.kind]), [['pix2stiffness', 'stiffness']]);
+    assert.deepEqual(info.strategies, ['fge', 'stiffness']);
+    assert.equal(info.default_strategy, 'stiffness');
+    // What the model says about the frame, straight from the API: the bar is hard, the floor is
+    // background. The page must show exactly that.
+    const map = readNpyFloat32(Buffer.from(await (await fetch(`${base}/v1/stiffness`,
+      { method: 'POST', body: await frameForm({ format: 'npy' }) })).arrayBuffer()));
+    assert.deepEqual([map.width, map.height], [640, 480]);
+    for (const [u, v] of HARD_BAR) assert.ok(map.at(u, v) >= 0.9, `hard at ${u},${v}: ${map.at(u, v)}`);
+    for (const [u, v] of BACKGROUND) assert.equal(map.at(u, v), 0, `background at ${u},${v}`);
+
+    const { context, page, errors } = await openPage();
+    const requests = [];
+    page.on('request', (request) => requests.push(new URL(request.url()).pathname));
+    const strategy = await page.$eval('#strategy', (select) => ({
+      options: [...select.options].map((o) => o.value), value: select.value,
+    }));
+    assert.deepEqual(strategy, { options: ['fge', 'stiffness'], value: 'stiffness' });
+    assert.equal(await page.isVisible('#picture-choice'), false, 'no view switch before results');
+
+    const result = await findGrasps(page);
+    assert.equal(requests.filter((p) => p === '/v1/stiffness').length, 1, 'one map per press');
+    assert.equal(result.strategy, 'stiffness');
+    assert.equal(result.stiffness_model, 'pix2stiffness');
+    assert.ok(result.grasps.length > 0);
+    const cells = await page.locator(`#grasp-table tbody tr td:nth-child(${MEAN_STIFFNESS_COLUMN + 1})`)
+      .allTextContents();
+    assert.deepEqual(cells, result.grasps.map((g) => g.mean_stiffness.toFixed(2)));
+    for (const g of result.grasps) assert.ok(g.mean_stiffness >= 0 && g.mean_stiffness <= 1, `${g.mean_stiffness}`);
+    assert.match(await page.textContent('#grasp-summary'), /strategy stiffness \(model pix2stiffness\)/);
+    assert.equal(await page.getAttribute('#grasp-canvas', 'data-picture'), 'depth');
+    assert.equal(await page.isVisible('#stiffness-legend'), false);
+    assert.equal(await page.isVisible('#download-stiffness'), true);
+    assert.equal(await page.getAttribute('#download-stiffness', 'download'), 'single_depth_0-stiffness.png');
+
+    // Keyboard: the view switch is a radio group; the right arrow moves from Depth to Stiffness.
+    // The pictures are compared without the grasps (their antialiased edges may be rasterised
+    // differently once the canvas has been read back).
+    await page.click('#show-grasps');
+    await snapshotCanvas(page, '#grasp-canvas');
+    await page.focus('#picture-depth');
+    await page.keyboard.press('ArrowRight');
+    assert.equal(await page.isChecked('#picture-stiffness'), true);
+    assert.equal(await page.getAttribute('#grasp-canvas', 'data-picture'), 'stiffness');
+    const change = await canvasChange(page, '#grasp-canvas');
+    assert.ok(change.differing > change.total * 0.5, `${change.differing} of ${change.total} px changed`);
+    assert.equal(await page.isVisible('#stiffness-legend'), true);
+    assert.match(await page.getAttribute('#grasp-canvas', 'aria-label'), /^Stiffness map/);
+
+    // The map shows: warm (red over blue) on the hard bar, black on the background, the same
+    // pixels as the service's PNG there, and the best grasp still green on top.
+    const hard = await canvasPixels(page, '#grasp-canvas', HARD_BAR);
+    for (const [r, g, b] of hard) assert.ok(r >= 100 && r > 2 * b && r > 2 * g, `warm: ${[r, g, b]}`);
+    const floor = await canvasPixels(page, '#grasp-canvas', BACKGROUND);
+    for (const [r, g, b] of floor) assert.ok(r + g + b <= 24, `black-ish: ${[r, g, b]}`);
+    assert.deepEqual(await linkedPngPixels(page, '#download-stiffness', [...HARD_BAR, ...BACKGROUND]),
+      [...hard, ...floor]);
+    await page.click('#show-grasps');
+    const best = fingerCentres(result.grasps[0]);
+    assert.deepEqual(await canvasPixels(page, '#grasp-canvas', best), [GREEN, GREEN]);
+    await page.screenshot({ path: artifactPath('stiffness.png'), fullPage: true });
+
+    // And back: the depth picture again, exactly as before.
+    await page.click('#show-grasps');
+    await page.focus('#picture-stiffness');
+    await page.keyboard.press('ArrowLeft');
+    assert.equal(await page.getAttribute('#grasp-canvas', 'data-picture'), 'depth');
+    assert.equal((await canvasChange(page, '#grasp-canvas')).differing, 0);
+
+    // On a phone the switch and the legend fit: nothing scrolls sideways.
+    await page.check('#picture-stiffness');
+    await page.setViewportSize({ width: 390, height: 844 });
+    const widths = await page.evaluate(() => [document.documentElement.scrollWidth,
+      document.documentElement.clientWidth]);
+    assert.ok(widths[0] <= widths[1], `no sideways scrolling: ${widths}`);
+    assert.equal(await page.isVisible('#stiffness-legend'), true);
+    await page.screenshot({ path: artifactPath('stiffness-phone.png'), fullPage: true });
+    assert.deepEqual(errors, []);
+    await context.close();
+  });
+
   it('shows the API error message for an invalid upload', async () => {
     const bytes = Buffer.from('this is not a depth image');
     const direct = new FormData();
@@ -253,6 +397,55 @@ describe('softgrasp page in chromium', () => {
     await page.keyboard.press('Tab');
     assert.equal(await page.evaluate(() => document.activeElement.className), 'skip-link');
     await page.screenshot({ path: artifactPath('phone.png'), fullPage: true });
+    assert.deepEqual(errors, []);
+    await context.close();
+  });
+});
+
+describe('softgrasp page in chromium, server without a stiffness model', () => {
+  let plainServer;
+  let plainBase;
+
+  before(async () => {
+    plainServer = startServer({ stiffnessModel: 'none' });
+    plainBase = await plainServer.ready;
+  });
+
+  after(async () => {
+    if (plainServer) await plainServer.stop();
+  });
+
+  it('offers only FGE, shows no stiffness view and still finds grasps', async () => {
+    const info = await (await fetch(`${plainBase}/v1/info`)).json();
+    assert.deepEqual(info.models, []);
+    assert.deepEqual(info.strategies, ['fge']);
+    assert.equal(info.default_strategy, 'fge');
+
+    const { context, page, errors } = await openPage({ width: 1280, height: 900 }, plainBase);
+    const requests = [];
+    page.on('request', (request) => requests.push(new URL(request.url()).pathname));
+    const strategy = await page.$eval('#strategy', (select) => ({
+      options: [...select.options].map((o) => o.value), value: select.value,
+    }));
+    assert.deepEqual(strategy, { options: ['fge'], value: 'fge' });
+
+    const result = await findGrasps(page);
+    assert.equal(result.strategy, 'fge');
+    assert.equal(result.stiffness_model, null);
+    assert.ok(result.grasps.length > 0, 'the service found grasps');
+    assert.equal(await page.locator('#grasp-table tbody tr').count(), result.grasps.length);
+    const cells = await page.locator(`#grasp-table tbody tr td:nth-child(${MEAN_STIFFNESS_COLUMN + 1})`)
+      .allTextContents();
+    assert.deepEqual(cells, result.grasps.map(() => '–'));
+    for (const g of result.grasps) assert.equal(g.mean_stiffness, null);
+    assert.deepEqual(await canvasPixels(page, '#grasp-canvas', fingerCentres(result.grasps[0])),
+      [GREEN, GREEN]);
+    for (const hidden of ['#picture-choice', '#stiffness-legend', '#download-stiffness']) {
+      assert.equal(await page.isVisible(hidden), false, hidden);
+    }
+    assert.equal(await page.getAttribute('#grasp-canvas', 'data-picture'), 'depth');
+    assert.deepEqual(requests.filter((p) => p.startsWith('/v1/stiffness')), []);
+    await page.screenshot({ path: artifactPath('grasps-no-model.png'), fullPage: true });
     assert.deepEqual(errors, []);
     await context.close();
   });

@@ -1,6 +1,7 @@
 // The page's pure modules under node: error messages from API bodies, file names from
-// Content-Disposition, the grasp geometry the canvas draws, the fractal request body, and the
-// robot panel's command body, states, result numbers and error messages.
+// Content-Disposition, the grasp geometry the canvas draws, the fractal request body, the
+// stiffness view's choices from /v1/info, and the robot panel's command body, states, result
+// numbers and error messages.
 import assert from 'node:assert/strict';
 import { describe, it } from 'node:test';
 
@@ -11,6 +12,9 @@ import {
   commandUrl, describeRobotError, isFinalState, isValidCommandId, newCommandId, resultSummary,
   robotCommandBody, stateSteps,
 } from '../../web/src/robot_model.js';
+import {
+  meanStiffnessText, stiffnessForm, stiffnessModel, strategyChoices,
+} from '../../web/src/stiffness.js';
 
 describe('API errors', () => {
   it('shows the message and field of the error body', () => {
@@ -81,6 +85,59 @@ describe('fractal request body', () => {
     { seed: 42, maps: [2, 7], points: 10000, sigma: 0.05, alpha: 0.3, scale: { opening_mm: 50 }, format: 'obj' });
     assert.deepEqual(fractalBody({ mapsMin: 3, mapsMax: 3, format: 'stl_binary' }), { maps: 3, format: 'stl_binary' });
     assert.deepEqual(fractalBody({ mapsMax: 4, format: 'json' }), { maps: 4, format: 'json' });
+  });
+});
+
+describe('stiffness view', () => {
+  const model = { name: 'pix2stiffness', kind: 'stiffness', input_size: 256, parameters: 1335073 };
+
+  it('finds the stiffness model in info.models, or none', () => {
+    assert.deepEqual(stiffnessModel({ models: [model] }), model);
+    assert.deepEqual(stiffnessModel({ models: [{ name: 'x', kind: 'other' }, model] }), model);
+    assert.equal(stiffnessModel({ models: [] }), null);
+    assert.equal(stiffnessModel({ models: [{ name: 'x', kind: 'other' }] }), null);
+    assert.equal(stiffnessModel({}), null); // a service from before the models list
+    assert.equal(stiffnessModel(null), null); // no info at all
+  });
+
+  it('offers info.strategies with the default preselected', () => {
+    const withModel = strategyChoices({ strategies: ['fge', 'stiffness'], default_strategy: 'stiffness' });
+    assert.deepEqual(withModel.options.map((o) => o.value), ['fge', 'stiffness']);
+    assert.equal(withModel.selected, 'stiffness');
+    assert.equal(withModel.options[0].label, 'FGE (fast graspability evaluation)');
+    assert.match(withModel.options[1].label, /^Stiffness/);
+    assert.deepEqual(strategyChoices({ strategies: ['fge'], default_strategy: 'fge' }),
+      { options: [{ value: 'fge', label: 'FGE (fast graspability evaluation)' }], selected: 'fge' });
+    // A default that is not offered, an unknown name, no list, no info.
+    assert.equal(strategyChoices({ strategies: ['fge'], default_strategy: 'stiffness' }).selected, 'fge');
+    assert.deepEqual(strategyChoices({ strategies: ['new'] }).options, [{ value: 'new', label: 'new' }]);
+    assert.deepEqual(strategyChoices({}).options.map((o) => o.value), ['fge']);
+    assert.equal(strategyChoices(null).selected, 'fge');
+  });
+
+  it('writes mean stiffness with 2 decimals, an en dash without a model', () => {
+    assert.equal(meanStiffnessText(0.98765), '0.99');
+    assert.equal(meanStiffnessText(0), '0.00');
+    assert.equal(meanStiffnessText(1), '1.00');
+    assert.equal(meanStiffnessText(null), '–');
+    assert.equal(meanStiffnessText(undefined), '–');
+    assert.equal(meanStiffnessText(Number.NaN), '–');
+  });
+
+  it('asks /v1/stiffness for the same depth and camera, without the grasp settings', async () => {
+    const grasps = new FormData();
+    grasps.append('depth', new Blob([new Uint8Array([1, 2, 3])]), 'frame.npy');
+    grasps.append('intrinsics', new Blob(['{"fx": 525}']), 'cam.intr');
+    grasps.append('fx', '525');
+    grasps.append('top_k', '5');
+    grasps.append('strategy', 'stiffness');
+    const form = stiffnessForm(grasps);
+    assert.deepEqual([...form.keys()], ['depth', 'intrinsics', 'fx', 'format']);
+    assert.equal(form.get('format'), 'color');
+    assert.equal(form.get('depth').name, 'frame.npy');
+    assert.deepEqual([...new Uint8Array(await form.get('depth').arrayBuffer())], [1, 2, 3]);
+    assert.equal(form.get('intrinsics').name, 'cam.intr');
+    assert.equal(stiffnessForm(grasps, 'npy').get('format'), 'npy');
   });
 });
 

@@ -3,10 +3,13 @@
 //
 // Three requests with the same form go out together: JSON (the grasps), format=png&draw=none
 // (the depth picture the page draws its own grasps on, so a row can be highlighted) and
-// format=png (the service's own overlay picture, offered as a download).
+// format=png (the service's own overlay picture, offered as a download). When the service has a
+// stiffness model (GET /v1/info "models"), a fourth, POST /v1/stiffness format=color with the same
+// depth and intrinsics, gives the stiffness map the grasps can be drawn on instead.
 
 import { call, describeError } from './api.js';
 import { angleDegrees, graspShape, isDrawable } from './grasp_geometry.js';
+import { meanStiffnessText, stiffnessForm, stiffnessModel, strategyChoices } from './stiffness.js';
 import {
   clearError, fileSizeText, fixed, saveBlob, setDownload, showError, whileBusy,
 } from './ui.js';
@@ -41,14 +44,25 @@ function applyDefaults(root, info) {
     if (typeof search[name] === 'number') root.querySelector(`#${name}`).value = search[name];
   }
   const strategy = root.querySelector('#strategy');
+  const choices = strategyChoices(info);
   strategy.replaceChildren();
-  for (const name of (info && info.strategies) || ['fge']) {
+  for (const { value, label } of choices.options) {
     const option = document.createElement('option');
-    option.value = name;
-    option.textContent = name === 'fge' ? 'FGE (fast graspability evaluation)' : name;
+    option.value = value;
+    option.textContent = label;
     strategy.append(option);
   }
+  strategy.value = choices.selected;
 }
+
+const PICTURE_CAPTIONS = {
+  depth: 'Depth colour-mapped (near = warm, missing = black);',
+  stiffness: 'Stiffness map of the service\'s model (soft blue … hard red, background black);',
+};
+const PICTURE_LABELS = {
+  depth: 'Colour-mapped depth with the grasps drawn over it',
+  stiffness: 'Stiffness map with the grasps drawn over it',
+};
 
 /** The request form: files and every non-empty field. */
 function buildForm(root, depthFile) {
@@ -64,12 +78,12 @@ function buildForm(root, depthFile) {
   return form;
 }
 
-/** Draws the depth picture and, when asked, the grasps (selected one last, on top). */
-function drawPicture(canvas, depthBitmap, grasps, selected, showGrasps) {
+/** Draws a picture (depth or stiffness) and, when asked, the grasps (selected one last, on top). */
+function drawPicture(canvas, bitmap, grasps, selected, showGrasps) {
   const ctx = canvas.getContext('2d');
-  canvas.width = depthBitmap.width;
-  canvas.height = depthBitmap.height;
-  ctx.drawImage(depthBitmap, 0, 0);
+  canvas.width = bitmap.width;
+  canvas.height = bitmap.height;
+  ctx.drawImage(bitmap, 0, 0);
   if (!showGrasps) return;
   const order = grasps.map((g, i) => i).filter((i) => i !== selected).reverse();
   if (selected >= 0) order.push(selected);
@@ -133,6 +147,7 @@ function fillTable(tbody, grasps, selected, onSelect) {
       cell(fixed(g.score, 3), 'num'),
       cell(fixed(g.opening_m * 1000, 1), 'num'),
       cell(fixed(g.grasp_height_m * 1000, 1), 'num'),
+      cell(meanStiffnessText(g.mean_stiffness), 'num'),
       cell(fixed(angleDegrees(g.angle_rad), 1), 'num'),
       cell(p.map((x) => fixed(x * 1000, 1)).join(', '), 'num'),
       cell(q.map((x) => fixed(x, 3)).join(', '), 'num'),
@@ -149,7 +164,9 @@ function summaryText(result, fileName) {
   const missing = fixed((image.missing_fraction || 0) * 100, 1);
   return `${n} grasp${n === 1 ? '' : 's'} in ${fileName}: ${image.width}×${image.height} ` +
     `${image.format}, ${missing} % missing, camera ${camera.source === 'request' ? 'from the request' : 'default'}` +
-    ` (f ${fixed(camera.fx, 1)} px), ${fixed(result.timing_ms && result.timing_ms.total, 0)} ms.`;
+    ` (f ${fixed(camera.fx, 1)} px), ${fixed(result.timing_ms && result.timing_ms.total, 0)} ms` +
+    `${result.strategy ? `, strategy ${result.strategy}` : ''}` +
+    `${result.stiffness_model ? ` (model ${result.stiffness_model})` : ''}.`;
 }
 
 export function mountGraspsPanel(root, info) {
@@ -163,11 +180,24 @@ export function mountGraspsPanel(root, info) {
   const canvas = root.querySelector('#grasp-canvas');
   const showGrasps = root.querySelector('#show-grasps');
   const tbody = root.querySelector('#grasp-table tbody');
+  const pictureChoice = root.querySelector('#picture-choice');
+  const pictureCaption = root.querySelector('#picture-caption');
+  const legend = root.querySelector('#stiffness-legend');
+  const stiffnessDownload = root.querySelector('#download-stiffness');
   applyDefaults(root, info);
+  // Fixed for the page's life: info is read once at load.
+  const hasStiffness = stiffnessModel(info) !== null;
 
-  const state = { grasps: [], bitmap: null, selected: 0, source: '' };
+  // bitmaps: the pictures the grasps can be drawn on ({depth, stiffness}); picture: the one shown.
+  const state = { grasps: [], bitmaps: {}, picture: 'depth', selected: 0, source: '' };
   const redraw = () => {
-    if (state.bitmap) drawPicture(canvas, state.bitmap, state.grasps, state.selected, showGrasps.checked);
+    const picture = state.bitmaps[state.picture] ? state.picture : 'depth';
+    const bitmap = state.bitmaps[picture];
+    pictureCaption.textContent = PICTURE_CAPTIONS[picture];
+    canvas.setAttribute('aria-label', PICTURE_LABELS[picture]);
+    legend.hidden = picture !== 'stiffness';
+    canvas.dataset.picture = picture; // for tests and scripts: what the canvas shows
+    if (bitmap) drawPicture(canvas, bitmap, state.grasps, state.selected, showGrasps.checked);
   };
   // Other panels (the robot's) follow the selection through a document event, not our state.
   const announce = () => {
@@ -183,6 +213,13 @@ export function mountGraspsPanel(root, info) {
     announce();
   };
   showGrasps.addEventListener('change', redraw);
+  for (const radio of pictureChoice.querySelectorAll('input[type="radio"]')) {
+    radio.addEventListener('change', () => {
+      if (!radio.checked) return;
+      state.picture = radio.value;
+      redraw();
+    });
+  }
 
   const describeFile = () => {
     const file = depthInput.files[0];
@@ -222,22 +259,33 @@ export function mountGraspsPanel(root, info) {
     const body = buildForm(root, depthFile);
     try {
       await whileBusy(form, progress, async () => {
-        const [json, depthPng, overlayPng] = await Promise.all([
+        const [json, depthPng, overlayPng, stiffnessPng] = await Promise.all([
           call('/v1/grasps?format=json', { method: 'POST', body }).then((r) => r.text()),
           call('/v1/grasps?format=png&draw=none', { method: 'POST', body }).then((r) => r.blob()),
           call('/v1/grasps?format=png', { method: 'POST', body }).then((r) => r.blob()),
+          hasStiffness
+            ? call('/v1/stiffness', { method: 'POST', body: stiffnessForm(body, 'color') })
+              .then((r) => r.blob())
+            : null,
         ]);
         const result = JSON.parse(json);
-        const bitmap = await createImageBitmap(depthPng);
-        if (state.bitmap) state.bitmap.close();
+        const bitmaps = { depth: await createImageBitmap(depthPng) };
+        if (stiffnessPng) bitmaps.stiffness = await createImageBitmap(stiffnessPng);
+        for (const old of Object.values(state.bitmaps)) old.close();
         Object.assign(state, {
-          grasps: result.grasps, bitmap, selected: result.grasps.length ? 0 : -1, source: depthFile.name,
+          grasps: result.grasps,
+          bitmaps,
+          selected: result.grasps.length ? 0 : -1,
+          source: depthFile.name,
         });
         const stem = depthFile.name.replace(/\.[^.]*$/, '') || 'depth';
         setDownload(root.querySelector('#download-json'),
           new Blob([json], { type: 'application/json' }), `${stem}-grasps.json`);
         setDownload(root.querySelector('#download-overlay'), overlayPng, `${stem}-grasps.png`);
         setDownload(root.querySelector('#download-depth'), depthPng, `${stem}-depth.png`);
+        if (stiffnessPng) setDownload(stiffnessDownload, stiffnessPng, `${stem}-stiffness.png`);
+        stiffnessDownload.hidden = !stiffnessPng;
+        pictureChoice.hidden = !stiffnessPng;
         root.querySelector('#grasp-summary').textContent = summaryText(result, depthFile.name);
         fillTable(tbody, state.grasps, state.selected, select);
         results.hidden = false;

@@ -1,7 +1,7 @@
 // Entry point: reads GET /v1/info once, then mounts each panel of the page.
 //
 // A panel is a <section data-panel="NAME"> in index.html plus a mount function here. The
-// stiffness-map panel joins this table when its endpoint exists (docs/web.md).
+// stiffness map is part of the grasps panel, shown when info lists a model (docs/web.md).
 
 import './style.css';
 import { describeError, fetchInfo } from './api.js';
