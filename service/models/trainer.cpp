@@ -175,6 +175,9 @@ std::optional<core::Error> CheckOptions(const TrainOptions& o, const TrainingSet
   if (o.batch < 1 || o.batch > 256) return bad("batch", "must be in 1..256");
   if (o.checkpoint_every < 1) return bad("checkpoint_every", "must be >= 1");
   if (!(o.lambda_l1 >= 0) || !(o.learning_rate > 0)) return bad("lambda", "and lr must be > 0");
+  if (!(o.object_weight >= 0) || o.object_weight > 1000) {
+    return bad("object_weight", "must be in [0, 1000]");
+  }
   if (set.size() < 1) return bad("data", "has no training pairs");
   if (set.side != o.network.input_size) return bad("data", "side differs from the network's");
   if ((o.network.input_size >> o.network.levels) < 2) {
@@ -251,7 +254,13 @@ core::Result<TrainReport> Train(const TrainOptions& options, const TrainingSet& 
     const torch::Tensor judged = s.discriminator->forward(x, fake);
     const torch::Tensor g_gan =
         torch::binary_cross_entropy_with_logits(judged, torch::ones_like(judged));
-    const torch::Tensor g_l1 = torch::l1_loss(fake, y);
+    const torch::Tensor g_l1 =
+        options.object_weight > 0
+            ? [&] {
+                const torch::Tensor w = 1.0 + options.object_weight * (y > 0).to(torch::kFloat32);
+                return (w * (fake - y).abs()).sum() / w.sum();
+              }()
+            : torch::l1_loss(fake, y);
     const torch::Tensor g_loss = g_gan + lambda * g_l1;
     g_loss.backward();
     s.opt_g.step();

@@ -19,6 +19,10 @@ struct TrainOptions {
   std::uint64_t seed = 1;
   int batch = 4;
   double lambda_l1 = 100.0;     ///< pix2pix default
+  /// Object pixels (target > 0) weigh 1 + object_weight in the L1 term, background 1 (the mean
+  /// is taken with these weights, so the term stays on the [0, 1] scale). Most pixels are
+  /// background; a weight puts the generator's effort where grasps land. 0 = plain pix2pix.
+  double object_weight = 0.0;
   double learning_rate = 2e-4;  ///< Adam, betas (0.5, 0.999); linear decay to 0 over the 2nd half
   int checkpoint_every = 250;   ///< steps between checkpoints (and loss plots); >= 1
   bool resume = false;          ///< continue from OUT.ckpt if it exists

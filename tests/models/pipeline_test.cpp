@@ -136,6 +136,24 @@ TEST_F(PipelineTest, TrainingStepsLowerTheL1LossAndWriteAllFiles) {
   EXPECT_EQ(lines, 31);  // header + one row per step
 }
 
+TEST_F(PipelineTest, ObjectWeightChangesOnlyTheL1Weighting) {
+  // Same seed, same initial network, same first batch: the first step's L1 differs only by the
+  // weighting. The untrained output is ~0.5 everywhere, so object pixels (targets 0.1 ... 1) are
+  // closer to it than background (0) and weighting them up lowers the mean.
+  TrainOptions plain = Options("plain_weight", 1);
+  TrainOptions weighted = Options("object_weight", 1);
+  weighted.object_weight = 5;
+  auto a = Train(plain, *set_);
+  auto b = Train(weighted, *set_);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_LT(b.value().history[0].g_l1, a.value().history[0].g_l1);
+  EXPECT_GT(b.value().history[0].g_l1, 0.0);
+  weighted.object_weight = -1;
+  auto bad = Train(weighted, *set_);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().field, "object_weight");
+}
+
 TEST_F(PipelineTest, ResumedRunMatchesAnUninterruptedOne) {
   const TrainOptions straight = Options("straight", 6);
   ASSERT_TRUE(Train(straight, *set_).ok());

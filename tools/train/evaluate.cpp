@@ -239,6 +239,14 @@ int RunEvaluate(std::vector<std::string> args) {
   if (Take(&args, "--grasp-scenes", &value) && !ParseCount(value, &grasp_scenes)) {
     return Fail("--grasp-scenes must be a count");
   }
+  core::StiffnessFgeParams stiffness_params;
+  if (Take(&args, "--centre-weight", &value)) {
+    char* end = nullptr;
+    stiffness_params.centre_weight = std::strtod(value.c_str(), &end);
+    if (*end != '\0' || !(stiffness_params.centre_weight >= 0)) {
+      return Fail("--centre-weight must be a number >= 0");
+    }
+  }
   if (Take(&args, "--threads", &value) && (!ParseCount(value, &threads) || threads < 1)) {
     return Fail("--threads must be >= 1");
   }
@@ -312,10 +320,11 @@ int RunEvaluate(std::vector<std::string> args) {
     Execute(g.scene, raycaster.value(), world_from_camera,
             core::DetectGraspsFge(in_bin, s.camera, gripper), s.stiffness, &fge);
     Execute(g.scene, raycaster.value(), world_from_camera,
-            core::DetectGraspsStiffness(in_bin, s.camera, predicted, gripper), s.stiffness, &stiff);
+            core::DetectGraspsStiffness(in_bin, s.camera, predicted, gripper, stiffness_params),
+            s.stiffness, &stiff);
     Execute(g.scene, raycaster.value(), world_from_camera,
-            core::DetectGraspsStiffness(in_bin, s.camera, s.stiffness, gripper), s.stiffness,
-            &oracle);
+            core::DetectGraspsStiffness(in_bin, s.camera, s.stiffness, gripper, stiffness_params),
+            s.stiffness, &oracle);
   }
   bar.Update(n);
   std::sort(predict_ms.begin(), predict_ms.end());

@@ -1,6 +1,7 @@
 // softgrasp-train: trains and evaluates the pix2stiffness model (docs/stiffness.md).
 //   softgrasp-train stiffness --data DIR --out MODEL [--steps N] [--seed S] [--batch B]
 //                             [--resume] [--checkpoint-every N] [--lambda L] [--lr LR]
+//                             [--object-weight W]
 //                             [--base-channels C] [--levels L] [--max-scenes N] [--threads T]
 //   softgrasp-train evaluate --model MODEL --data VALDIR [--train-data DIR] [--scenes N]
 //                            [--grasp-scenes N] [--threads T]
@@ -28,13 +29,14 @@ namespace models = softgrasp::models;
 constexpr const char* kUsage =
     "usage: softgrasp-train stiffness --data DIR --out MODEL [--steps N] [--seed S] [--batch B]\n"
     "                                 [--resume] [--checkpoint-every N] [--lambda L] [--lr LR]\n"
+    "                                 [--object-weight W]\n"
     "                                 [--base-channels C] [--disc-channels C] [--levels L]\n"
-    "                                 [--max-scenes N]"
-    "                                 [--threads T]\n"
+    "                                 [--max-scenes N] [--threads T]\n"
     "  Trains the pix2stiffness generator (pix2pix: U-Net + PatchGAN, GAN + lambda*L1) on a\n"
     "  softgrasp-sim dataset. Writes MODEL, MODEL.ckpt (resumable), MODEL_loss.csv/.png.\n"
     "       softgrasp-train evaluate --model MODEL --data VALDIR [--train-data DIR]\n"
-    "                                [--scenes N] [--grasp-scenes N] [--threads T]\n"
+    "                                [--scenes N] [--grasp-scenes N] [--centre-weight W]\n"
+    "                                [--threads T]\n"
     "  Prints JSON: RMSE (0-255) and MSSIM of the model and two baselines, and the grasp\n"
     "  metrics (GT mean stiffness in the grasp region; simulated execution) vs classic FGE.\n";
 
@@ -134,6 +136,10 @@ int RunStiffness(Args args) {
   }
   if (args.Take("--lambda", &value) && (!ParseDouble(value, &o.lambda_l1) || o.lambda_l1 < 0)) {
     return Fail("--lambda must be a number >= 0");
+  }
+  if (args.Take("--object-weight", &value) &&
+      (!ParseDouble(value, &o.object_weight) || o.object_weight < 0 || o.object_weight > 1000)) {
+    return Fail("--object-weight must be a number in [0, 1000]");
   }
   if (args.Take("--lr", &value) &&
       (!ParseDouble(value, &o.learning_rate) || o.learning_rate <= 0)) {
