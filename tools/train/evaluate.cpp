@@ -174,6 +174,7 @@ struct StrategyStats {
   int damaged = 0;
   std::map<std::string, int> outcomes;
   std::map<std::string, std::string> example_reason;  // first reason per outcome
+  json per_grasp = json::array();  // with --per-grasp: one record per executed top grasp
   json ToJson() const {
     json o = {{"scenes", attempts + no_grasp},
               {"grasps", attempts},
@@ -187,20 +188,55 @@ struct StrategyStats {
                attempts > 0 ? json(static_cast<double>(damaged) / attempts) : json(nullptr)},
               {"outcomes", outcomes},
               {"example_reason", example_reason}};
+    if (!per_grasp.empty()) o["per_grasp"] = per_grasp;
     return o;
   }
 };
 
+/// The model's map against the truth on one object category's visible pixels.
+struct CategoryError {
+  Mean truth, predicted, abs_error;
+};
+
+void AddCategoryErrors(const sim::SimScene& scene, const cv::Mat1w& labels, const cv::Mat1f& truth,
+                       const cv::Mat1f& predicted, std::map<std::string, CategoryError>* out) {
+  std::map<int, CategoryError*> by_id;
+  for (const sim::PlacedObject& o : scene.objects) {
+    by_id[o.instance_id] = &(*out)[o.object->category];
+  }
+  for (int r = 0; r < labels.rows; ++r) {
+    for (int c = 0; c < labels.cols; ++c) {
+      const auto it = by_id.find(labels(r, c));
+      if (it == by_id.end() || !(truth(r, c) > 0)) continue;
+      it->second->truth.Add(truth(r, c));
+      it->second->predicted.Add(predicted(r, c));
+      it->second->abs_error.Add(std::abs(predicted(r, c) - truth(r, c)));
+    }
+  }
+}
+
+json CategoryErrorsJson(const std::map<std::string, CategoryError>& by_category) {
+  json out = json::object();
+  for (const auto& [category, e] : by_category) {
+    out[category] = {{"mean_truth", Num(e.truth.value())},
+                     {"mean_predicted", Num(e.predicted.value())},
+                     {"mean_abs_error", Num(e.abs_error.value())}};
+  }
+  return out;
+}
+
 void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
              const Eigen::Isometry3d& world_from_camera, const std::vector<core::Grasp>& grasps,
-             const cv::Mat1f& truth, StrategyStats* stats) {
+             const cv::Mat1f& truth, const cv::Mat1w& labels, int scene_index, bool per_grasp,
+             StrategyStats* stats) {
   if (grasps.empty()) {
     ++stats->no_grasp;
     return;
   }
   const core::Grasp& g = grasps.front();
   ++stats->attempts;
-  stats->gt_mean_stiffness.Add(core::MeanStiffnessInGraspRegion(truth, g));
+  const double true_mean = core::MeanStiffnessInGraspRegion(truth, g);
+  stats->gt_mean_stiffness.Add(true_mean);
   auto exec = sim::ExecuteGrasp(scene, raycaster, sim::SimGraspFromCamera(g, world_from_camera),
                                 sim::SimGripper{});
   if (!exec.ok()) {
@@ -208,6 +244,20 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
     return;
   }
   const sim::GraspExecution& e = exec.value();
+  if (per_grasp) {
+    // The object under the grasp centre (labels are instance ids, 0 = support).
+    const int u = std::clamp(static_cast<int>(std::lround(g.center_u_px)), 0, labels.cols - 1);
+    const int v = std::clamp(static_cast<int>(std::lround(g.center_v_px)), 0, labels.rows - 1);
+    const sim::PlacedObject* object = scene.Find(labels(v, u));
+    stats->per_grasp.push_back({{"scene", scene_index},
+                                {"object", object ? object->object->category : "none"},
+                                {"outcome", sim::GraspOutcomeName(e.outcome)},
+                                {"planner_mean_stiffness", Num(g.mean_stiffness)},
+                                {"true_mean_stiffness", Num(true_mean)},
+                                {"deformation_rate", Num(e.deformation_rate)},
+                                {"center_px", {g.center_u_px, g.center_v_px}},
+                                {"angle_rad", g.angle_rad}});
+  }
   ++stats->outcomes[sim::GraspOutcomeName(e.outcome)];
   stats->example_reason.emplace(sim::GraspOutcomeName(e.outcome), e.reason);
   if (e.outcome == sim::GraspOutcome::kSucceeded || e.outcome == sim::GraspOutcome::kSlipped) {
@@ -239,6 +289,8 @@ int RunEvaluate(std::vector<std::string> args) {
   if (Take(&args, "--grasp-scenes", &value) && !ParseCount(value, &grasp_scenes)) {
     return Fail("--grasp-scenes must be a count");
   }
+  const bool per_grasp = std::find(args.begin(), args.end(), "--per-grasp") != args.end();
+  args.erase(std::remove(args.begin(), args.end(), "--per-grasp"), args.end());
   core::StiffnessFgeParams stiffness_params;
   if (Take(&args, "--centre-weight", &value)) {
     char* end = nullptr;
@@ -274,6 +326,7 @@ int RunEvaluate(std::vector<std::string> args) {
   Mean rmse_model, rmse_const, rmse_heur, mssim_model, mssim_const, mssim_heur;
   std::vector<double> predict_ms;
   StrategyStats fge, stiff, oracle;
+  std::map<std::string, CategoryError> by_category;
   int skipped = 0, mismatched = 0;
   sim::ProgressBar bar("evaluating", n);
   for (int i = 0; i < n; ++i) {
@@ -313,18 +366,20 @@ int RunEvaluate(std::vector<std::string> args) {
       ++mismatched;  // the dataset was not made with these parameters: skip its grasps
       continue;
     }
+    AddCategoryErrors(g.scene, s.labels, s.stiffness, predicted, &by_category);
     auto raycaster = sim::SceneRaycaster::Build(g.scene);
     if (!raycaster.ok()) return Fail(raycaster.error().message);
     const Eigen::Isometry3d& world_from_camera = spec.value().render.world_from_camera;
     const core::Gripper gripper;
     Execute(g.scene, raycaster.value(), world_from_camera,
-            core::DetectGraspsFge(in_bin, s.camera, gripper), s.stiffness, &fge);
+            core::DetectGraspsFge(in_bin, s.camera, gripper), s.stiffness, s.labels, i, per_grasp,
+            &fge);
     Execute(g.scene, raycaster.value(), world_from_camera,
             core::DetectGraspsStiffness(in_bin, s.camera, predicted, gripper, stiffness_params),
-            s.stiffness, &stiff);
+            s.stiffness, s.labels, i, per_grasp, &stiff);
     Execute(g.scene, raycaster.value(), world_from_camera,
             core::DetectGraspsStiffness(in_bin, s.camera, s.stiffness, gripper, stiffness_params),
-            s.stiffness, &oracle);
+            s.stiffness, s.labels, i, per_grasp, &oracle);
   }
   bar.Update(n);
   std::sort(predict_ms.begin(), predict_ms.end());
@@ -346,6 +401,8 @@ int RunEvaluate(std::vector<std::string> args) {
         {"heuristic_baseline",
          {{"rmse_255", Num(rmse_heur.value())}, {"mssim", Num(mssim_heur.value())}}}}},
       {"predict_ms_median_incl_preprocess", Num(median_ms)},
+      // Object pixels of the grasp scenes, per catalogue category: where the map is wrong.
+      {"object_pixels_by_category", CategoryErrorsJson(by_category)},
       {"grasp_metrics",
        {{"scenes", n_grasp},
         {"scenes_not_reproduced", mismatched},

@@ -36,7 +36,7 @@ constexpr const char* kUsage =
     "  softgrasp-sim dataset. Writes MODEL, MODEL.ckpt (resumable), MODEL_loss.csv/.png.\n"
     "       softgrasp-train evaluate --model MODEL --data VALDIR [--train-data DIR]\n"
     "                                [--scenes N] [--grasp-scenes N] [--centre-weight W]\n"
-    "                                [--threads T]\n"
+    "                                [--per-grasp] [--threads T]\n"
     "  Prints JSON: RMSE (0-255) and MSSIM of the model and two baselines, and the grasp\n"
     "  metrics (GT mean stiffness in the grasp region; simulated execution) vs classic FGE.\n";
 
