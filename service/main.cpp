@@ -65,8 +65,8 @@ softgrasp::core::Result<std::shared_ptr<softgrasp::robot::CommandTracker>> Start
 // The pix2stiffness model (docs/stiffness.md), or null when configured "none". A configured
 // model that cannot be loaded is an error: the service does not start without what it was told
 // to serve.
-softgrasp::core::Result<std::shared_ptr<const softgrasp::models::StiffnessModel>> LoadStiffnessModel(
-    const std::string& path) {
+softgrasp::core::Result<std::shared_ptr<const softgrasp::models::StiffnessModel>>
+LoadStiffnessModel(const std::string& path) {
   using namespace softgrasp;
   if (path == "none") {
     std::cerr << "softgrasp-server: no stiffness model (POST /v1/stiffness answers 503, grasps use "

@@ -13,8 +13,8 @@
 #include "service/io/depth_codec.h"
 #include "service/io/overlay.h"
 #include "service/rest/build_info.h"
-#include "service/rest/fractal_request.h"
 #include "service/rest/depth_request.h"
+#include "service/rest/fractal_request.h"
 #include "service/rest/robot_api.h"
 
 namespace softgrasp::rest {
@@ -170,15 +170,18 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
   } else {
     grasps = core::DetectGraspsFge(scene, up.camera, in.gripper, in.fge);
     if (model) {
-      for (core::Grasp& g : grasps) g.mean_stiffness = core::ContactMeanStiffness(scene, stiffness, g);
+      for (core::Grasp& g : grasps) {
+        g.mean_stiffness = core::ContactMeanStiffness(scene, stiffness, g);
+      }
     }
   }
   const double detect_ms = MillisecondsSince(detect_start);
 
   if (png) {
-    const cv::Mat3b background = in.overlay == OverlayBackground::kStiffness
-                                     ? io::ColorizeStiffness(stiffness, models::kBackgroundThreshold)
-                                     : io::ColorizeDepth(up.depth);
+    const cv::Mat3b background =
+        in.overlay == OverlayBackground::kStiffness
+            ? io::ColorizeStiffness(stiffness, models::kBackgroundThreshold)
+            : io::ColorizeDepth(up.depth);
     return PngResponse(io::DrawGrasps(background, grasps), grasps.size());
   }
   json list = json::array();
@@ -247,8 +250,8 @@ http::Response Stiffness(const http::Request& request, const ServiceConfig& conf
       out = http::Response::Bytes(200, "application/x-npy", io::EncodeNpy(s));
       break;
     case StiffnessFormat::kColor:
-      out = http::Response::Bytes(200, "image/png",
-                                  io::EncodePng(io::ColorizeStiffness(s, models::kBackgroundThreshold)));
+      out = http::Response::Bytes(
+          200, "image/png", io::EncodePng(io::ColorizeStiffness(s, models::kBackgroundThreshold)));
       break;
   }
   out.set_header("Server-Timing", "model;dur=" + std::to_string(model_ms));
