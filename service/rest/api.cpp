@@ -284,6 +284,8 @@ json FractalStats(const mesh::FractalModel& m, const FractalRequest& in, double 
       {"bbox", {{"min_m", m.bbox_min_m}, {"max_m", m.bbox_max_m}, {"size_m", size}}},
       {"maps", m.ifs.maps.size()},
       {"points", m.num_points},
+      {"points_triangulated", m.points_triangulated},
+      {"merge_cell", m.merge_cell},
       {"sigma", in.params.sigma},
       {"variances", m.variances},
       {"alpha_requested", m.alpha_requested},

@@ -43,6 +43,10 @@ TEST_F(FractalsApiTest, StatisticsDescribeAClosedScaledMesh) {
   EXPECT_GE(stats["attempts"].get<int>(), 1);
   EXPECT_GE(stats["alpha_used"].get<double>(), 0.3);
   EXPECT_EQ(stats["seed"], 7);
+  // Near-duplicate chaos-game points are merged on a grid of min(0.05 alpha, 0.05) first.
+  EXPECT_DOUBLE_EQ(stats["merge_cell"].get<double>(), 0.05 * 0.3);
+  EXPECT_GT(stats["points_triangulated"].get<int>(), 3);
+  EXPECT_LE(stats["points_triangulated"].get<int>(), stats["points"].get<int>());
   // Smallest bounding-box side = 80 % of the 50 mm opening.
   const auto& size = stats["bbox"]["size_m"];
   const double smallest = std::min({size[0].get<double>(), size[1].get<double>(), size[2].get<double>()});
