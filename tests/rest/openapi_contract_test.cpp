@@ -74,6 +74,13 @@ TEST(OpenApiContractTest, ResponsesMatchTheirSchemas) {
   EXPECT_EQ(validator.Validate(json::parse(bad.body), schema_of("/v1/grasps", "post", "415")),
             std::vector<std::string>{});
 
+  const auto fractal = server.Send(testing::RawRequest(
+      "POST", "/v1/fractals", "application/json", R"({"seed": 3, "points": 4000, "format": "json"})"));
+  ASSERT_EQ(fractal.status, 200) << fractal.body;
+  EXPECT_EQ(validator.Validate(json::parse(fractal.body),
+                               spec["components"]["schemas"]["FractalStats"]),
+            std::vector<std::string>{});
+
   // Errors from the HTTP layer (unknown route) have the same shape.
   const auto missing = server.Send(testing::RawRequest("GET", "/nope"));
   EXPECT_EQ(missing.status, 404);
