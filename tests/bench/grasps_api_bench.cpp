@@ -6,7 +6,9 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>
 
+#include "service/io/depth_codec.h"
 #include "tests/rest/server_fixture.h"
+#include "tests/support/synthetic_scene.h"
 
 namespace softgrasp::rest {
 namespace {
@@ -54,6 +56,32 @@ void BM_PostGraspsFgeWithModel(benchmark::State& state) {
   Run(state, ServerWithModel(), PrimesenseUpload("/v1/grasps", {{"strategy", "fge", ""}}));
 }
 BENCHMARK(BM_PostGraspsFgeWithModel)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The same on a 640 x 480 clutter frame (the synthetic clutter scene of stiffness_bench), where
+// the planners have the most candidates: the budget's hard case.
+void BM_PostGraspsStiffnessClutter(benchmark::State& state) {
+  const ::softgrasp::testing::SyntheticScene clutter =
+      ::softgrasp::testing::RenderScene(::softgrasp::testing::ClutterSceneSpec());
+  const core::Camera& c = clutter.camera;
+  const std::string target = "/v1/grasps?strategy=stiffness&fx=" + std::to_string(c.fx) +
+                             "&fy=" + std::to_string(c.fy) + "&cx=" + std::to_string(c.cx) +
+                             "&cy=" + std::to_string(c.cy);
+  Run(state, ServerWithModel(),
+      testing::RawRequest("POST", target, "application/x-npy", io::EncodeNpy(clutter.depth.depth_m)));
+}
+BENCHMARK(BM_PostGraspsStiffnessClutter)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_PostGraspsFgeClutter(benchmark::State& state) {
+  const ::softgrasp::testing::SyntheticScene clutter =
+      ::softgrasp::testing::RenderScene(::softgrasp::testing::ClutterSceneSpec());
+  const core::Camera& c = clutter.camera;
+  const std::string target = "/v1/grasps?fx=" + std::to_string(c.fx) + "&fy=" +
+                             std::to_string(c.fy) + "&cx=" + std::to_string(c.cx) + "&cy=" +
+                             std::to_string(c.cy);
+  Run(state, Server(),
+      testing::RawRequest("POST", target, "application/x-npy", io::EncodeNpy(clutter.depth.depth_m)));
+}
+BENCHMARK(BM_PostGraspsFgeClutter)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // The map alone as an 8-bit PNG.
 void BM_PostStiffnessPng8(benchmark::State& state) {
