@@ -728,11 +728,19 @@ void CellPeaks(const cv::Mat1f& candidate, const cv::Mat1f& small, const cv::Mat
   }
 }
 
-// Candidates, graspability and peaks of one slice inside one cluster (canvas pixels): box sums
-// on the rois inside it, zeros elsewhere.
-void PeaksInCluster(const SliceIntegrals& in, const FastFge::SliceWork& w, const cv::Rect& cluster,
-                    const std::vector<cv::Rect>& rois, FastFge::Workspace& ws,
-                    std::vector<CanvasPeak>& peaks) {
+// The candidate map of one slice inside one cluster and its blur: `box` (cluster pixels) bounds
+// the candidates; `candidates` holds them from the box's top-left (padded with zeros to whole
+// blur cells), `small`/`blurred` are the cell blur of that.
+struct BlurredCandidates {
+  cv::Rect box;
+  cv::Mat1f candidates, small, blurred;
+};
+
+// Candidates of one slice inside one cluster (canvas pixels), box sums on the rois inside it and
+// zeros elsewhere, then blurred on the candidates' bounding box only. False when there is none.
+bool BlurCandidatesInCluster(const SliceIntegrals& in, const FastFge::SliceWork& w,
+                             const cv::Rect& cluster, const std::vector<cv::Rect>& rois,
+                             FastFge::Workspace& ws, BlurredCandidates& out) {
   cv::Mat1f candidate = View(ws.candidate, cluster.size());
   candidate.setTo(0);
   int first_row = cluster.height, last_row = -1;
@@ -740,23 +748,31 @@ void PeaksInCluster(const SliceIntegrals& in, const FastFge::SliceWork& w, const
     if ((roi & cluster) != roi) continue;  // another cluster's
     for (int y = 0; y < roi.height; ++y) {
       const int row = roi.y - cluster.y + y;
-      float* out = candidate.ptr<float>(row) + (roi.x - cluster.x);
-      if (CandidateRow(in, w, roi.y + y, roi.x, roi.width, ws, out) > 0) {
+      float* dst = candidate.ptr<float>(row) + (roi.x - cluster.x);
+      if (CandidateRow(in, w, roi.y + y, roi.x, roi.width, ws, dst) > 0) {
         first_row = std::min(first_row, row);
         last_row = std::max(last_row, row);
       }
     }
   }
-  if (last_row < 0) return;
-  // Blur only the candidates' bounding box (sides divisible by the cell size).
-  const cv::Rect box = NonZeroBox(candidate, first_row, last_row);
-  const cv::Rect padded = RoundUp(box, w.blur_downscale);
-  cv::Mat1f blur_input = View(ws.grasp, padded.size());
-  blur_input.setTo(0);
-  candidate(box).copyTo(blur_input(cv::Rect(cv::Point(0, 0), box.size())));
-  cv::Mat1f small, blurred;
-  BlurSmall(blur_input, w.blur_sigma_px, w.blur_downscale, ws, small, blurred);
-  CellPeaks(blur_input, small, blurred, w.blur_downscale, cluster.tl() + box.tl(), peaks);
+  if (last_row < 0) return false;
+  // Sides divisible by the cell size.
+  out.box = NonZeroBox(candidate, first_row, last_row);
+  const cv::Rect padded = RoundUp(out.box, w.blur_downscale);
+  out.candidates = View(ws.grasp, padded.size());
+  out.candidates.setTo(0);
+  candidate(out.box).copyTo(out.candidates(cv::Rect(cv::Point(0, 0), out.box.size())));
+  BlurSmall(out.candidates, w.blur_sigma_px, w.blur_downscale, ws, out.small, out.blurred);
+  return true;
+}
+
+// Candidates, graspability and peaks of one slice inside one cluster (canvas pixels).
+void PeaksInCluster(const SliceIntegrals& in, const FastFge::SliceWork& w, const cv::Rect& cluster,
+                    const std::vector<cv::Rect>& rois, FastFge::Workspace& ws,
+                    std::vector<CanvasPeak>& peaks) {
+  BlurredCandidates b;
+  if (!BlurCandidatesInCluster(in, w, cluster, rois, ws, b)) return;
+  CellPeaks(b.candidates, b.small, b.blurred, w.blur_downscale, cluster.tl() + b.box.tl(), peaks);
 }
 
 int BlurRadius(const FastFge::SliceWork& w) {
@@ -881,28 +897,9 @@ void CandidatesInCluster(const SliceIntegrals& in, const FastFge::SliceWork& w,
                          const cv::Rect& cluster, const std::vector<cv::Rect>& rois,
                          const cv::Mat2f& crop_map, const cv::Matx23d& crop_from_canvas, int step,
                          FastFge::Workspace& ws, std::vector<CanvasCandidate>& out) {
-  cv::Mat1f candidate = View(ws.candidate, cluster.size());
-  candidate.setTo(0);
-  int first_row = cluster.height, last_row = -1;
-  for (const cv::Rect& roi : rois) {
-    if ((roi & cluster) != roi) continue;  // another cluster's
-    for (int y = 0; y < roi.height; ++y) {
-      const int row = roi.y - cluster.y + y;
-      float* dst = candidate.ptr<float>(row) + (roi.x - cluster.x);
-      if (CandidateRow(in, w, roi.y + y, roi.x, roi.width, ws, dst) > 0) {
-        first_row = std::min(first_row, row);
-        last_row = std::max(last_row, row);
-      }
-    }
-  }
-  if (last_row < 0) return;
-  const cv::Rect box = NonZeroBox(candidate, first_row, last_row);
-  const cv::Rect padded = RoundUp(box, w.blur_downscale);
-  cv::Mat1f blur_input = View(ws.grasp, padded.size());
-  blur_input.setTo(0);
-  candidate(box).copyTo(blur_input(cv::Rect(cv::Point(0, 0), box.size())));
-  cv::Mat1f small, blurred;
-  BlurSmall(blur_input, w.blur_sigma_px, w.blur_downscale, ws, small, blurred);
+  BlurredCandidates blurred;
+  if (!BlurCandidatesInCluster(in, w, cluster, rois, ws, blurred)) return;
+  const cv::Rect& box = blurred.box;
   // Candidates lie in the canvas' safe rect: their closing regions stay inside the canvas.
   const int a = w.boxes.contact_half_len, b = w.boxes.half_width;
   const cv::Point box_tl = cluster.tl() + box.tl();
@@ -917,14 +914,14 @@ void CandidatesInCluster(const SliceIntegrals& in, const FastFge::SliceWork& w,
   const int w_box = 2 * a + 1, h_box = 2 * b + 1;
   for (int y = 0; y < box.height; ++y) {
     if ((box_tl.y + y) % step != 0) continue;
-    const float* c = blur_input.ptr<float>(y);
+    const float* c = blurred.candidates.ptr<float>(y);
     for (int x = 0; x < box.width; ++x) {
       if (!(c[x] > 0) || (box_tl.x + x) % step != 0) continue;
       cv::Vec2d s(0, 0);
       if (!sums.empty()) {  // the integral's (x, y) is the closing region's top-left corner
         s = sums(y + h_box, x + w_box) - sums(y, x + w_box) - sums(y + h_box, x) + sums(y, x);
       }
-      const float g = std::clamp(CellValue(blurred, w.blur_downscale, x, y), 0.0f, 1.0f);
+      const float g = std::clamp(CellValue(blurred.blurred, w.blur_downscale, x, y), 0.0f, 1.0f);
       out.push_back({box_tl + cv::Point(x, y), g, s});
     }
   }
