@@ -798,6 +798,24 @@ std::vector<cv::Rect> ObjectGroups(const FastFge::Canvas& canvas, const Template
   return MergeRects(std::move(grown), blur_radius);
 }
 
+// Objects whose neighbourhoods (largest template, largest blur radius) are close form one
+// group; each group has its own integral images, over the group grown by the box sums' reach.
+// The caches share `next_slot` (they keep a reference to it: it must outlive them).
+std::vector<IntegralCache> GroupCaches(const FastFge::Canvas& canvas,
+                                       const std::vector<FastFge::SliceWork>& work,
+                                       FastFge::Workspace& ws, std::size_t& next_slot) {
+  const TemplateBoxes largest = LargestBoxes(work);
+  std::vector<IntegralCache> caches;
+  for (const cv::Rect& group : ObjectGroups(canvas, largest, MaxBlurRadius(work))) {
+    const int reach_x = largest.finger_outer + 1, reach_y = largest.half_width + 1;
+    const cv::Rect region = cv::Rect(group.x - reach_x, group.y - reach_y,
+                                     group.width + 2 * reach_x, group.height + 2 * reach_y) &
+                            cv::Rect(cv::Point(0, 0), canvas.levels.size());
+    caches.emplace_back(canvas, region, ws, next_slot);
+  }
+  return caches;
+}
+
 IntegralCache& CacheHolding(std::vector<IntegralCache>& caches, const cv::Rect& cluster) {
   for (IntegralCache& cache : caches) {
     if ((cache.region() & cluster) == cluster) return cache;
@@ -818,18 +836,8 @@ std::vector<std::vector<LocalMaximum>> FastFge::LocalMaxima(double angle_rad) {
     last_canvas_ = std::make_unique<Canvas>(canvas);
     last_angle_rad_ = angle_rad;
   }
-  // Objects whose neighbourhoods (largest template, largest blur radius) are close form one
-  // group; each group has its own integral images, over the group grown by the box sums' reach.
-  const TemplateBoxes largest = LargestBoxes(work_);
-  std::vector<IntegralCache> caches;
   std::size_t next_slot = 0;
-  for (const cv::Rect& group : ObjectGroups(canvas, largest, MaxBlurRadius(work_))) {
-    const int reach_x = largest.finger_outer + 1, reach_y = largest.half_width + 1;
-    const cv::Rect region = cv::Rect(group.x - reach_x, group.y - reach_y,
-                                     group.width + 2 * reach_x, group.height + 2 * reach_y) &
-                            cv::Rect(cv::Point(0, 0), canvas.levels.size());
-    caches.emplace_back(canvas, region, *ws_, next_slot);
-  }
+  std::vector<IntegralCache> caches = GroupCaches(canvas, work_, *ws_, next_slot);
   const LevelLimits limits{max_level_, max_seam_level_, contact_is_obstacle_};
   std::vector<CanvasPeak> peaks;
   for (std::size_t i = 0; i < slices_.size(); ++i) {
@@ -958,16 +966,8 @@ std::vector<std::vector<FastFge::RegionCandidate>> FastFge::Candidates(
   CV_Assert(grid_step >= 1);
   last_canvas_.reset();  // MakeCanvas reuses the buffer that a pending turn would read
   const Canvas canvas = MakeCanvas(angle_rad, false);
-  const TemplateBoxes largest = LargestBoxes(work_);
-  std::vector<IntegralCache> caches;
   std::size_t next_slot = 0;
-  for (const cv::Rect& group : ObjectGroups(canvas, largest, MaxBlurRadius(work_))) {
-    const int reach_x = largest.finger_outer + 1, reach_y = largest.half_width + 1;
-    const cv::Rect region = cv::Rect(group.x - reach_x, group.y - reach_y,
-                                     group.width + 2 * reach_x, group.height + 2 * reach_y) &
-                            cv::Rect(cv::Point(0, 0), canvas.levels.size());
-    caches.emplace_back(canvas, region, *ws_, next_slot);
-  }
+  std::vector<IntegralCache> caches = GroupCaches(canvas, work_, *ws_, next_slot);
   const LevelLimits limits{max_level_, max_seam_level_, contact_is_obstacle_};
   std::vector<CanvasCandidate> found;
   for (std::size_t i = 0; i < slices_.size(); ++i) {
