@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,9 @@ LoadStiffnessModel(const std::string& path) {
   }
   auto model = models::StiffnessModel::Load(path);
   if (!model) return model.error();
+  // One forward pass now, so the first request does not pay libtorch's one-time set-up.
+  const int side = model.value().input_size();
+  model.value().PredictModelInput(cv::Mat1f(side, side, -1.0f));
   std::cerr << "softgrasp-server: stiffness model " << path << " (" << model.value().description()
             << ")\n";
   return std::shared_ptr<const models::StiffnessModel>(
