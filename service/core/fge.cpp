@@ -22,8 +22,7 @@ using fge_detail::SimilarAngle;
 using fge_detail::Slice;
 using fge_detail::StableContacts;
 
-// At most this many contact checks per map (each walks the whole closing region).
-constexpr int kMaxContactChecksPerMap = 64;
+using fge_detail::kMaxContactChecksPerMap;
 
 struct Candidate {
   double u_px = 0;

@@ -27,6 +27,9 @@ inline constexpr double kMinFingerThicknessWorkPx = 2.5;
 inline constexpr int kMaxWorkScale = 4;
 /// The top slice sits this far below the N-th highest surface point (N = min_object_area_px).
 inline constexpr double kTopSliceMarginM = 0.001;
+/// Each (angle, slice) map runs at most this many contact checks (each walks the whole closing
+/// region); shared by classic and stiffness-aware FGE.
+inline constexpr int kMaxContactChecksPerMap = 64;
 /// The fast path encodes up to 126 threshold levels (3 per slice).
 inline constexpr int kMaxHeightSteps = 40;
 
