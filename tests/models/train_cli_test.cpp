@@ -1,0 +1,178 @@
+// softgrasp-train run as a process on a tiny generated dataset: `stiffness` trains, writes its
+// files and resumes; `evaluate` with the shipped model rebuilds every scene, beats the constant
+// baseline and executes grasps; bad command lines exit 2 with a message naming the problem.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "sim/dataset/dataset.h"
+
+namespace softgrasp::models {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct CliRun {
+  int exit_code = -1;
+  std::string out;  ///< standard output
+  std::string err;  ///< standard error
+};
+
+std::string Slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+class TrainCliTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = new fs::path(fs::temp_directory_path() /
+                         ("softgrasp_train_cli_" + std::to_string(::getpid())));
+    fs::remove_all(*root_);
+    sim::DatasetParams params;  // full-size camera, bin, noise on: what `generate` writes
+    params.scenes = 3;
+    params.seed = 11;
+    params.out_dir = *root_ / "data";
+    params.spec.render.noise.enabled = true;
+    auto index = sim::GenerateDataset(params);
+    ASSERT_TRUE(index.ok()) << index.error().message;
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*root_);
+    delete root_;
+  }
+
+  static CliRun Train(const std::string& args) {
+    const fs::path out = *root_ / "stdout.txt", err = *root_ / "stderr.txt";
+    const std::string cmd = std::string(SOFTGRASP_TRAIN_EXE) + " " + args + " > " + out.string() +
+                            " 2> " + err.string() + " < /dev/null";
+    const int status = std::system(cmd.c_str());
+    CliRun r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = Slurp(out);
+    r.err = Slurp(err);
+    return r;
+  }
+  static std::string Data() { return (*root_ / "data").string(); }
+  static std::string Shipped() {
+    return (fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "pix2stiffness.pt").string();
+  }
+
+  static fs::path* root_;
+};
+fs::path* TrainCliTest::root_ = nullptr;
+
+TEST_F(TrainCliTest, StiffnessTrainsWritesItsFilesAndResumes) {
+  const fs::path model = *root_ / "run" / "m.pt";
+  const std::string common = "stiffness --data " + Data() + " --out " + model.string() +
+                             " --batch 1 --base-channels 4 --disc-channels 4 --levels 4 --threads 1";
+  const CliRun first = Train(common + " --steps 2");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_NE(first.out.find("loaded 3 scenes"), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find("trained steps 0 -> 2"), std::string::npos) << first.out;
+  for (const fs::path& p : {model, fs::path(*root_ / "run" / "m.ckpt"),
+                            fs::path(*root_ / "run" / "m_loss.csv"),
+                            fs::path(*root_ / "run" / "m_loss.png")}) {
+    EXPECT_TRUE(fs::exists(p)) << p;
+  }
+  const CliRun resumed = Train(common + " --steps 3 --resume");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_NE(resumed.out.find("trained steps 2 -> 3"), std::string::npos) << resumed.out;
+  // The loss CSV covers every step of both runs: header + 3 rows.
+  const std::string csv = Slurp(*root_ / "run" / "m_loss.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4) << csv;
+  // A checkpoint of another network is refused, not silently restarted.
+  const CliRun other = Train("stiffness --data " + Data() + " --out " + model.string() +
+                          " --steps 4 --batch 1 --base-channels 8 --disc-channels 4 --levels 4 "
+                          "--threads 1 --resume");
+  EXPECT_EQ(other.exit_code, 2);
+  EXPECT_NE(other.err.find("another network config"), std::string::npos) << other.err;
+}
+
+TEST_F(TrainCliTest, EvaluateRebuildsTheScenesAndBeatsTheConstantMap) {
+  if (!fs::exists(Shipped())) GTEST_SKIP() << "no shipped model";
+  const CliRun r = Train("evaluate --model " + Shipped() + " --data " + Data() + " --train-data " +
+                      Data() + " --grasp-scenes 3 --per-grasp --threads 2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json out = json::parse(r.out);
+  EXPECT_EQ(out["scenes"], 3);
+  EXPECT_EQ(out["skipped_scenes"], 0);
+  const json& image = out["image_metrics"];
+  const double model_rmse = image["model"]["rmse_255"].get<double>();
+  EXPECT_LT(model_rmse, image["constant_baseline"]["rmse_255"].get<double>());
+  EXPECT_LT(model_rmse, image["heuristic_baseline"]["rmse_255"].get<double>());
+  EXPECT_GT(image["model"]["mssim"].get<double>(), image["constant_baseline"]["mssim"].get<double>());
+  const json& grasps = out["grasp_metrics"];
+  EXPECT_EQ(grasps["scenes"], 3);
+  EXPECT_EQ(grasps["scenes_not_reproduced"], 0);  // the stored scenes were rebuilt exactly
+  for (const char* planner : {"fge", "stiffness_model", "stiffness_ground_truth"}) {
+    SCOPED_TRACE(planner);
+    const json& p = grasps.at(planner);
+    EXPECT_EQ(p.at("scenes"), 3);
+    // 3-8 objects a scene (the generate default): every planner finds a grasp in each.
+    ASSERT_EQ(p.at("grasps"), 3);
+    EXPECT_EQ(p.at("no_grasp"), 0);
+    int outcomes = 0;
+    for (const auto& [name, count] : p.at("outcomes").items()) outcomes += count.get<int>();
+    EXPECT_EQ(outcomes, 3);
+    ASSERT_EQ(p.at("per_grasp").size(), 3u);
+    for (const json& g : p.at("per_grasp")) EXPECT_TRUE(g.at("true_mean_stiffness").is_number());
+  }
+  // With the true map the stiffness planner chooses harder regions than FGE.
+  EXPECT_GT(grasps["stiffness_ground_truth"]["mean_gt_stiffness_in_region"].get<double>(),
+            grasps["fge"]["mean_gt_stiffness_in_region"].get<double>());
+  EXPECT_FALSE(out["object_pixels_by_category"].empty());
+}
+
+TEST_F(TrainCliTest, BadCommandLinesExitTwoAndSayWhy) {
+  struct Case {
+    std::string args;
+    std::string message;
+  };
+  const fs::path model = *root_ / "bad" / "m.pt";
+  const std::string train = "stiffness --data " + Data() + " --out " + model.string();
+  for (const Case& c : std::vector<Case>{
+           {"", "missing command"},
+           {"nonsense", "unknown command"},
+           {"stiffness --out " + model.string(), "--data DIR is required"},
+           {"stiffness --data " + Data(), "--out MODEL is required"},
+           {train + " --steps 0", "--steps must be"},
+           {train + " --steps ten", "--steps must be"},
+           {train + " --lr -1", "--lr must be"},
+           {train + " --batch 999", "--batch must be"},
+           {train + " --levels 9", "--levels must be"},
+           {train + " --object-weight -2", "--object-weight must be"},
+           {train + " --what 1", "unknown argument --what"},
+           {"stiffness --data " + (*root_ / "nowhere").string() + " --out " + model.string(),
+            "nowhere"},
+           {"evaluate --data " + Data(), "--model MODEL is required"},
+           {"evaluate --model " + Shipped(), "--data VALDIR is required"},
+           {"evaluate --model " + Shipped() + " --data " + Data(), "--train-data DIR"},
+           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 2",
+            "--constant in [0, 1]"},
+           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --grasp-scenes x",
+            "--grasp-scenes must be a count"},
+           {"evaluate --model " + (*root_ / "none.pt").string() + " --data " + Data() +
+                " --constant 0.1",
+            "none.pt"},
+       }) {
+    SCOPED_TRACE(c.args);
+    const CliRun r = Train(c.args);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
+    EXPECT_TRUE(r.out.empty()) << r.out;
+  }
+  EXPECT_FALSE(fs::exists(model));
+}
+
+}  // namespace
+}  // namespace softgrasp::models
