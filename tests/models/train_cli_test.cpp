@@ -159,6 +159,12 @@ TEST_F(TrainCliTest, BadCommandLinesExitTwoAndSayWhy) {
            {"evaluate --model " + Shipped() + " --data " + Data(), "--train-data DIR"},
            {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 2",
             "--constant in [0, 1]"},
+           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant ''",
+            "--constant in [0, 1]"},
+           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --centre-weight -1",
+            "--centre-weight must be"},
+           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --centre-weight 1x",
+            "--centre-weight must be"},
            {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --grasp-scenes x",
             "--grasp-scenes must be a count"},
            {"evaluate --model " + (*root_ / "none.pt").string() + " --data " + Data() +

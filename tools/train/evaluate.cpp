@@ -63,6 +63,15 @@ struct Mean {
   double value() const { return n > 0 ? sum / n : std::nan(""); }
 };
 
+/// A whole-string decimal number ("" and "1x" are not).
+bool ParseNumber(const std::string& text, double* out) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0') return false;
+  *out = v;
+  return true;
+}
+
 json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 /// The mean of every training target pixel (background included): the constant baseline.
@@ -278,10 +287,9 @@ int RunEvaluate(std::vector<std::string> args) {
   if (!Take(&args, "--model", &model_path)) return Fail("--model MODEL is required");
   if (!Take(&args, "--data", &data)) return Fail("--data VALDIR is required");
   Take(&args, "--train-data", &train_data);
-  if (Take(&args, "--constant", &value)) {
-    char* end = nullptr;
-    constant = std::strtod(value.c_str(), &end);
-    if (*end != '\0' || !(constant >= 0 && constant <= 1)) return Fail("--constant in [0, 1]");
+  if (Take(&args, "--constant", &value) &&
+      (!ParseNumber(value, &constant) || !(constant >= 0 && constant <= 1))) {
+    return Fail("--constant in [0, 1]");
   }
   if (Take(&args, "--scenes", &value) && !ParseCount(value, &max_scenes)) {
     return Fail("--scenes must be a count");
@@ -292,12 +300,10 @@ int RunEvaluate(std::vector<std::string> args) {
   const bool per_grasp = std::find(args.begin(), args.end(), "--per-grasp") != args.end();
   args.erase(std::remove(args.begin(), args.end(), "--per-grasp"), args.end());
   core::StiffnessFgeParams stiffness_params;
-  if (Take(&args, "--centre-weight", &value)) {
-    char* end = nullptr;
-    stiffness_params.centre_weight = std::strtod(value.c_str(), &end);
-    if (*end != '\0' || !(stiffness_params.centre_weight >= 0)) {
-      return Fail("--centre-weight must be a number >= 0");
-    }
+  if (Take(&args, "--centre-weight", &value) &&
+      (!ParseNumber(value, &stiffness_params.centre_weight) ||
+       !(stiffness_params.centre_weight >= 0))) {
+    return Fail("--centre-weight must be a number >= 0");
   }
   if (Take(&args, "--threads", &value) && (!ParseCount(value, &threads) || threads < 1)) {
     return Fail("--threads must be >= 1");
