@@ -165,6 +165,8 @@ TEST_F(TrainCliTest, BadCommandLinesExitTwoAndSayWhy) {
             "--centre-weight must be"},
            {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --centre-weight 1x",
             "--centre-weight must be"},
+           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --centre-weight inf",
+            "--centre-weight must be"},
            {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --grasp-scenes x",
             "--grasp-scenes must be a count"},
            {"evaluate --model " + (*root_ / "none.pt").string() + " --data " + Data() +

@@ -63,11 +63,11 @@ struct Mean {
   double value() const { return n > 0 ? sum / n : std::nan(""); }
 };
 
-/// A whole-string decimal number ("" and "1x" are not).
+/// A whole-string finite decimal number ("", "1x", "inf" and "nan" are not).
 bool ParseNumber(const std::string& text, double* out) {
   char* end = nullptr;
   const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0') return false;
+  if (text.empty() || *end != '\0' || !std::isfinite(v)) return false;
   *out = v;
   return true;
 }
