@@ -126,7 +126,27 @@ TEST_F(TrainCliTest, EvaluateRebuildsTheScenesAndBeatsTheConstantMap) {
     EXPECT_EQ(outcomes, 3);
     ASSERT_EQ(p.at("per_grasp").size(), 3u);
     for (const json& g : p.at("per_grasp")) EXPECT_TRUE(g.at("true_mean_stiffness").is_number());
+    // Bootstrap intervals over the 3 scenes bracket the figures they belong to.
+    for (const char* figure : {"mean_gt_stiffness_in_region", "success_rate"}) {
+      SCOPED_TRACE(figure);
+      const json& ci = p.at("ci95").at(figure);
+      ASSERT_TRUE(ci.at(0).is_number() && ci.at(1).is_number()) << ci;
+      EXPECT_LE(ci[0].get<double>(), p.at(figure).get<double>() + 1e-12);
+      EXPECT_GE(ci[1].get<double>(), p.at(figure).get<double>() - 1e-12);
+      EXPECT_GE(ci[0].get<double>(), 0.0);
+      EXPECT_LE(ci[1].get<double>(), 1.0);
+    }
   }
+  // The paired comparisons' values are the plain ratios and differences of the figures above.
+  const json& versus = grasps.at("versus_fge").at("stiffness_model");
+  EXPECT_NEAR(versus.at("stiffness_gain").at("value").get<double>(),
+              grasps["mean_stiffness_gain"].get<double>(), 1e-9);
+  EXPECT_NEAR(versus.at("success_difference").at("value").get<double>(),
+              grasps["stiffness_model"]["success_rate"].get<double>() -
+                  grasps["fge"]["success_rate"].get<double>(),
+              1e-9);
+  const json& gain_ci = versus.at("stiffness_gain").at("ci95");
+  EXPECT_LE(gain_ci.at(0).get<double>(), gain_ci.at(1).get<double>());
   // With the true map the stiffness planner chooses harder regions than FGE.
   EXPECT_GT(grasps["stiffness_ground_truth"]["mean_gt_stiffness_in_region"].get<double>(),
             grasps["fge"]["mean_gt_stiffness_in_region"].get<double>());

@@ -19,6 +19,7 @@
 #include "sim/dataset/scene_gen.h"
 #include "sim/grasp/execute.h"
 #include "sim/progress.h"
+#include "tools/train/bootstrap.h"
 
 namespace softgrasp::tools {
 namespace {
@@ -174,6 +175,18 @@ cv::Mat1b BinRoi(const sim::SceneSpec& spec, const core::Camera& cam, int margin
   return roi;
 }
 
+// Bootstrap over grasp scenes for the 95 % intervals (tools/train/bootstrap.h): fixed, so the
+// same evaluation prints the same intervals.
+constexpr int kBootstrapResamples = 2000;
+constexpr std::uint64_t kBootstrapSeed = 1;
+
+Interval SceneInterval(std::size_t scenes, const SceneStatistic& statistic) {
+  return BootstrapInterval(static_cast<int>(scenes), statistic, kBootstrapResamples,
+                           kBootstrapSeed);
+}
+
+json IntervalJson(const Interval& ci) { return json::array({Num(ci.low), Num(ci.high)}); }
+
 struct StrategyStats {
   Mean gt_mean_stiffness;  // eq. 3.14 on the ground-truth map
   Mean deformation_rate;   // over grasps that closed on one object (succeeded or slipped)
@@ -184,6 +197,9 @@ struct StrategyStats {
   std::map<std::string, int> outcomes;
   std::map<std::string, std::string> example_reason;  // first reason per outcome
   json per_grasp = json::array();  // with --per-grasp: one record per executed top grasp
+  // One entry per grasp scene, in scene order (the same for every planner), for the bootstrap:
+  // NaN where the scene has no such figure (no grasp; no single-object contact to deform).
+  std::vector<double> scene_gt_stiffness, scene_deformation, scene_success;
   json ToJson() const {
     json o = {{"scenes", attempts + no_grasp},
               {"grasps", attempts},
@@ -197,10 +213,46 @@ struct StrategyStats {
                attempts > 0 ? json(static_cast<double>(damaged) / attempts) : json(nullptr)},
               {"outcomes", outcomes},
               {"example_reason", example_reason}};
+    if (!scene_success.empty()) {
+      const auto mean_of = [](const std::vector<double>& v) {
+        return [&v](std::span<const int> sample) { return SampleMean(v, sample); };
+      };
+      const std::size_t n = scene_success.size();
+      o["ci95"] = {
+          {"mean_gt_stiffness_in_region", IntervalJson(SceneInterval(n, mean_of(scene_gt_stiffness)))},
+          {"mean_deformation_rate", IntervalJson(SceneInterval(n, mean_of(scene_deformation)))},
+          {"success_rate", IntervalJson(SceneInterval(n, mean_of(scene_success)))}};
+    }
     if (!per_grasp.empty()) o["per_grasp"] = per_grasp;
     return o;
   }
 };
+
+/// `s` against classic FGE, each figure with its 95 % interval over the same resampled scenes:
+/// mean true stiffness in the grasp region as a gain (s / fge - 1), mean deformation as a ratio
+/// (s / fge; the goal "at most half" is a ratio <= 0.5), success as a difference (s - fge).
+json VersusFge(const StrategyStats& s, const StrategyStats& fge) {
+  const std::size_t n = fge.scene_success.size();
+  if (n == 0 || s.scene_success.size() != n) return json();
+  const auto gain = [&](std::span<const int> k) {
+    return SampleMean(s.scene_gt_stiffness, k) / SampleMean(fge.scene_gt_stiffness, k) - 1.0;
+  };
+  const auto ratio = [&](std::span<const int> k) {
+    return SampleMean(s.scene_deformation, k) / SampleMean(fge.scene_deformation, k);
+  };
+  const auto difference = [&](std::span<const int> k) {
+    return SampleMean(s.scene_success, k) - SampleMean(fge.scene_success, k);
+  };
+  std::vector<int> all(n);
+  for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
+  json out = json::object();
+  const std::vector<std::pair<const char*, SceneStatistic>> statistics = {
+      {"stiffness_gain", gain}, {"deformation_ratio", ratio}, {"success_difference", difference}};
+  for (const auto& [name, statistic] : statistics) {
+    out[name] = {{"value", Num(statistic(all))}, {"ci95", IntervalJson(SceneInterval(n, statistic))}};
+  }
+  return out;
+}
 
 /// The model's map against the truth on one object category's visible pixels.
 struct CategoryError {
@@ -238,6 +290,9 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
              const Eigen::Isometry3d& world_from_camera, const std::vector<core::Grasp>& grasps,
              const cv::Mat1f& truth, const cv::Mat1w& labels, int scene_index, bool per_grasp,
              StrategyStats* stats) {
+  stats->scene_gt_stiffness.push_back(std::nan(""));
+  stats->scene_deformation.push_back(std::nan(""));
+  stats->scene_success.push_back(0.0);
   if (grasps.empty()) {
     ++stats->no_grasp;
     return;
@@ -246,6 +301,7 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
   ++stats->attempts;
   const double true_mean = core::MeanStiffnessInGraspRegion(truth, g);
   stats->gt_mean_stiffness.Add(true_mean);
+  stats->scene_gt_stiffness.back() = true_mean;
   auto exec = sim::ExecuteGrasp(scene, raycaster, sim::SimGraspFromCamera(g, world_from_camera),
                                 sim::SimGripper{});
   if (!exec.ok()) {
@@ -271,8 +327,12 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
   stats->example_reason.emplace(sim::GraspOutcomeName(e.outcome), e.reason);
   if (e.outcome == sim::GraspOutcome::kSucceeded || e.outcome == sim::GraspOutcome::kSlipped) {
     stats->deformation_rate.Add(e.deformation_rate);
+    stats->scene_deformation.back() = e.deformation_rate;
   }
-  if (e.succeeded()) ++stats->succeeded;
+  if (e.succeeded()) {
+    ++stats->succeeded;
+    stats->scene_success.back() = 1.0;
+  }
   if (e.damaged) ++stats->damaged;
 }
 
@@ -415,7 +475,12 @@ int RunEvaluate(std::vector<std::string> args) {
         {"fge", fge.ToJson()},
         {"stiffness_model", stiff.ToJson()},
         {"stiffness_ground_truth", oracle.ToJson()},
-        {"mean_stiffness_gain", Num(st_s / fge_s - 1.0)}}},
+        {"mean_stiffness_gain", Num(st_s / fge_s - 1.0)},
+        // Paired percentile bootstrap over the grasp scenes (docs/stiffness.md, "Evaluation").
+        {"versus_fge",
+         {{"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}},
+          {"stiffness_model", VersusFge(stiff, fge)},
+          {"stiffness_ground_truth", VersusFge(oracle, fge)}}}}},
   };
   std::cout << out.dump(2) << std::endl;
   return 0;
