@@ -73,15 +73,16 @@ fs::path* TrainCliTest::root_ = nullptr;
 
 TEST_F(TrainCliTest, StiffnessTrainsWritesItsFilesAndResumes) {
   const fs::path model = *root_ / "run" / "m.pt";
-  const std::string common = "stiffness --data " + Data() + " --out " + model.string() +
-                             " --batch 1 --base-channels 4 --disc-channels 4 --levels 4 --threads 1";
+  const std::string common =
+      "stiffness --data " + Data() + " --out " + model.string() +
+      " --batch 1 --base-channels 4 --disc-channels 4 --levels 4 --threads 1";
   const CliRun first = Train(common + " --steps 2");
   ASSERT_EQ(first.exit_code, 0) << first.err;
   EXPECT_NE(first.out.find("loaded 3 scenes"), std::string::npos) << first.out;
   EXPECT_NE(first.out.find("trained steps 0 -> 2"), std::string::npos) << first.out;
-  for (const fs::path& p : {model, fs::path(*root_ / "run" / "m.ckpt"),
-                            fs::path(*root_ / "run" / "m_loss.csv"),
-                            fs::path(*root_ / "run" / "m_loss.png")}) {
+  for (const fs::path& p :
+       {model, fs::path(*root_ / "run" / "m.ckpt"), fs::path(*root_ / "run" / "m_loss.csv"),
+        fs::path(*root_ / "run" / "m_loss.png")}) {
     EXPECT_TRUE(fs::exists(p)) << p;
   }
   const CliRun resumed = Train(common + " --steps 3 --resume");
@@ -92,8 +93,8 @@ TEST_F(TrainCliTest, StiffnessTrainsWritesItsFilesAndResumes) {
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4) << csv;
   // A checkpoint of another network is refused, not silently restarted.
   const CliRun other = Train("stiffness --data " + Data() + " --out " + model.string() +
-                          " --steps 4 --batch 1 --base-channels 8 --disc-channels 4 --levels 4 "
-                          "--threads 1 --resume");
+                             " --steps 4 --batch 1 --base-channels 8 --disc-channels 4 --levels 4 "
+                             "--threads 1 --resume");
   EXPECT_EQ(other.exit_code, 2);
   EXPECT_NE(other.err.find("another network config"), std::string::npos) << other.err;
 }
@@ -101,7 +102,7 @@ TEST_F(TrainCliTest, StiffnessTrainsWritesItsFilesAndResumes) {
 TEST_F(TrainCliTest, EvaluateRebuildsTheScenesAndBeatsTheConstantMap) {
   if (!fs::exists(Shipped())) GTEST_SKIP() << "no shipped model";
   const CliRun r = Train("evaluate --model " + Shipped() + " --data " + Data() + " --train-data " +
-                      Data() + " --grasp-scenes 3 --per-grasp --threads 2");
+                         Data() + " --grasp-scenes 3 --per-grasp --threads 2");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json out = json::parse(r.out);
   EXPECT_EQ(out["scenes"], 3);
@@ -110,7 +111,8 @@ TEST_F(TrainCliTest, EvaluateRebuildsTheScenesAndBeatsTheConstantMap) {
   const double model_rmse = image["model"]["rmse_255"].get<double>();
   EXPECT_LT(model_rmse, image["constant_baseline"]["rmse_255"].get<double>());
   EXPECT_LT(model_rmse, image["heuristic_baseline"]["rmse_255"].get<double>());
-  EXPECT_GT(image["model"]["mssim"].get<double>(), image["constant_baseline"]["mssim"].get<double>());
+  EXPECT_GT(image["model"]["mssim"].get<double>(),
+            image["constant_baseline"]["mssim"].get<double>());
   const json& grasps = out["grasp_metrics"];
   EXPECT_EQ(grasps["scenes"], 3);
   EXPECT_EQ(grasps["scenes_not_reproduced"], 0);  // the stored scenes were rebuilt exactly
@@ -181,13 +183,17 @@ TEST_F(TrainCliTest, BadCommandLinesExitTwoAndSayWhy) {
             "--constant in [0, 1]"},
            {"evaluate --model " + Shipped() + " --data " + Data() + " --constant ''",
             "--constant in [0, 1]"},
-           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --centre-weight -1",
+           {"evaluate --model " + Shipped() + " --data " + Data() +
+                " --constant 0.1 --centre-weight -1",
             "--centre-weight must be"},
-           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --centre-weight 1x",
+           {"evaluate --model " + Shipped() + " --data " + Data() +
+                " --constant 0.1 --centre-weight 1x",
             "--centre-weight must be"},
-           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --centre-weight inf",
+           {"evaluate --model " + Shipped() + " --data " + Data() +
+                " --constant 0.1 --centre-weight inf",
             "--centre-weight must be"},
-           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --grasp-scenes x",
+           {"evaluate --model " + Shipped() + " --data " + Data() +
+                " --constant 0.1 --grasp-scenes x",
             "--grasp-scenes must be a count"},
            {"evaluate --model " + (*root_ / "none.pt").string() + " --data " + Data() +
                 " --constant 0.1",

@@ -219,7 +219,8 @@ struct StrategyStats {
       };
       const std::size_t n = scene_success.size();
       o["ci95"] = {
-          {"mean_gt_stiffness_in_region", IntervalJson(SceneInterval(n, mean_of(scene_gt_stiffness)))},
+          {"mean_gt_stiffness_in_region",
+           IntervalJson(SceneInterval(n, mean_of(scene_gt_stiffness)))},
           {"mean_deformation_rate", IntervalJson(SceneInterval(n, mean_of(scene_deformation)))},
           {"success_rate", IntervalJson(SceneInterval(n, mean_of(scene_success)))}};
     }
@@ -249,7 +250,8 @@ json VersusFge(const StrategyStats& s, const StrategyStats& fge) {
   const std::vector<std::pair<const char*, SceneStatistic>> statistics = {
       {"stiffness_gain", gain}, {"deformation_ratio", ratio}, {"success_difference", difference}};
   for (const auto& [name, statistic] : statistics) {
-    out[name] = {{"value", Num(statistic(all))}, {"ci95", IntervalJson(SceneInterval(n, statistic))}};
+    out[name] = {{"value", Num(statistic(all))},
+                 {"ci95", IntervalJson(SceneInterval(n, statistic))}};
   }
   return out;
 }
