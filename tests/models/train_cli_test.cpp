@@ -101,8 +101,10 @@ TEST_F(TrainCliTest, StiffnessTrainsWritesItsFilesAndResumes) {
 
 TEST_F(TrainCliTest, EvaluateRebuildsTheScenesAndBeatsTheConstantMap) {
   if (!fs::exists(Shipped())) GTEST_SKIP() << "no shipped model";
-  const CliRun r = Train("evaluate --model " + Shipped() + " --data " + Data() + " --train-data " +
-                         Data() + " --grasp-scenes 3 --per-grasp --threads 2");
+  // --compare with the same model: its planner must match the first one's grasp for grasp.
+  const CliRun r =
+      Train("evaluate --model " + Shipped() + " --data " + Data() + " --train-data " + Data() +
+            " --grasp-scenes 3 --per-grasp --threads 2 --compare " + Shipped());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json out = json::parse(r.out);
   EXPECT_EQ(out["scenes"], 3);
@@ -116,7 +118,8 @@ TEST_F(TrainCliTest, EvaluateRebuildsTheScenesAndBeatsTheConstantMap) {
   const json& grasps = out["grasp_metrics"];
   EXPECT_EQ(grasps["scenes"], 3);
   EXPECT_EQ(grasps["scenes_not_reproduced"], 0);  // the stored scenes were rebuilt exactly
-  for (const char* planner : {"fge", "stiffness_model", "stiffness_ground_truth"}) {
+  for (const char* planner :
+       {"fge", "stiffness_model", "stiffness_ground_truth", "stiffness_compared_model"}) {
     SCOPED_TRACE(planner);
     const json& p = grasps.at(planner);
     EXPECT_EQ(p.at("scenes"), 3);
@@ -149,6 +152,20 @@ TEST_F(TrainCliTest, EvaluateRebuildsTheScenesAndBeatsTheConstantMap) {
               1e-9);
   const json& gain_ci = versus.at("stiffness_gain").at("ci95");
   EXPECT_LE(gain_ci.at(0).get<double>(), gain_ci.at(1).get<double>());
+  // The same model compared with itself: the same map scores, and the paired comparison of the
+  // two planners is exactly even in every resample.
+  EXPECT_EQ(out["compared_model"]["image_metrics"], image["model"]);
+  const json& same = grasps.at("compared_versus_model");
+  for (const auto& [figure, even] : {std::pair{"deformation_ratio", 1.0},
+                                     {"stiffness_gain", 0.0},
+                                     {"success_difference", 0.0}}) {
+    SCOPED_TRACE(figure);
+    if (!same.at(figure).at("value").is_number()) continue;  // e.g. no deformation to compare
+    EXPECT_DOUBLE_EQ(same.at(figure).at("value").get<double>(), even);
+    EXPECT_DOUBLE_EQ(same.at(figure).at("ci95").at(0).get<double>(), even);
+    EXPECT_DOUBLE_EQ(same.at(figure).at("ci95").at(1).get<double>(), even);
+  }
+  EXPECT_TRUE(same.at("stiffness_gain").at("value").is_number());
   // With the true map the stiffness planner chooses harder regions than FGE.
   EXPECT_GT(grasps["stiffness_ground_truth"]["mean_gt_stiffness_in_region"].get<double>(),
             grasps["fge"]["mean_gt_stiffness_in_region"].get<double>());
@@ -198,6 +215,9 @@ TEST_F(TrainCliTest, BadCommandLinesExitTwoAndSayWhy) {
            {"evaluate --model " + (*root_ / "none.pt").string() + " --data " + Data() +
                 " --constant 0.1",
             "none.pt"},
+           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --compare " +
+                (*root_ / "other.pt").string(),
+            "other.pt"},
        }) {
     SCOPED_TRACE(c.args);
     const CliRun r = Train(c.args);

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "service/core/fge.h"
 #include "service/core/fge_stiffness.h"
@@ -229,20 +230,22 @@ struct StrategyStats {
   }
 };
 
-/// `s` against classic FGE, each figure with its 95 % interval over the same resampled scenes:
-/// mean true stiffness in the grasp region as a gain (s / fge - 1), mean deformation as a ratio
-/// (s / fge; the goal "at most half" is a ratio <= 0.5), success as a difference (s - fge).
-json VersusFge(const StrategyStats& s, const StrategyStats& fge) {
-  const std::size_t n = fge.scene_success.size();
+/// Planner `s` against planner `base` (classic FGE, or the first model's planner for
+/// --compare), each figure with its 95 % interval over the same resampled scenes: mean true
+/// stiffness in the grasp region as a gain (s / base - 1), mean deformation as a ratio
+/// (s / base; the goal "at most half of FGE's" is a ratio <= 0.5), success as a difference
+/// (s - base).
+json Versus(const StrategyStats& s, const StrategyStats& base) {
+  const std::size_t n = base.scene_success.size();
   if (n == 0 || s.scene_success.size() != n) return json();
   const auto gain = [&](std::span<const int> k) {
-    return SampleMean(s.scene_gt_stiffness, k) / SampleMean(fge.scene_gt_stiffness, k) - 1.0;
+    return SampleMean(s.scene_gt_stiffness, k) / SampleMean(base.scene_gt_stiffness, k) - 1.0;
   };
   const auto ratio = [&](std::span<const int> k) {
-    return SampleMean(s.scene_deformation, k) / SampleMean(fge.scene_deformation, k);
+    return SampleMean(s.scene_deformation, k) / SampleMean(base.scene_deformation, k);
   };
   const auto difference = [&](std::span<const int> k) {
-    return SampleMean(s.scene_success, k) - SampleMean(fge.scene_success, k);
+    return SampleMean(s.scene_success, k) - SampleMean(base.scene_success, k);
   };
   std::vector<int> all(n);
   for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
@@ -341,7 +344,7 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
 }  // namespace
 
 int RunEvaluate(std::vector<std::string> args) {
-  std::string model_path, data, train_data, value;
+  std::string model_path, compare_path, data, train_data, value;
   int max_scenes = 0;
   int grasp_scenes = 50;
   int threads = 2;
@@ -349,6 +352,7 @@ int RunEvaluate(std::vector<std::string> args) {
   if (!Take(&args, "--model", &model_path)) return Fail("--model MODEL is required");
   if (!Take(&args, "--data", &data)) return Fail("--data VALDIR is required");
   Take(&args, "--train-data", &train_data);
+  Take(&args, "--compare", &compare_path);
   if (Take(&args, "--constant", &value) &&
       (!ParseNumber(value, &constant) || !(constant >= 0 && constant <= 1))) {
     return Fail("--constant in [0, 1]");
@@ -379,6 +383,13 @@ int RunEvaluate(std::vector<std::string> args) {
 
   auto model = models::StiffnessModel::Load(model_path);
   if (!model.ok()) return Fail(model.error().message);
+  // --compare: a second model whose planner runs on the same scenes (paired with the first's).
+  std::optional<models::StiffnessModel> compared;
+  if (!compare_path.empty()) {
+    auto loaded = models::StiffnessModel::Load(compare_path);
+    if (!loaded.ok()) return Fail(loaded.error().message);
+    compared.emplace(std::move(loaded).value());
+  }
   auto val = models::SceneDataset::Open(data);
   if (!val.ok()) return Fail(val.error().message);
   if (!std::isfinite(constant)) {
@@ -392,8 +403,9 @@ int RunEvaluate(std::vector<std::string> args) {
   const int n = max_scenes > 0 ? std::min(max_scenes, val.value().size()) : val.value().size();
   const int n_grasp = std::min(grasp_scenes, n);
   Mean rmse_model, rmse_const, rmse_heur, mssim_model, mssim_const, mssim_heur;
+  Mean rmse_compared, mssim_compared;
   std::vector<double> predict_ms;
-  StrategyStats fge, stiff, oracle;
+  StrategyStats fge, stiff, oracle, stiff_compared;
   std::map<std::string, CategoryError> by_category;
   int skipped = 0, mismatched = 0;
   sim::ProgressBar bar("evaluating", n);
@@ -411,13 +423,20 @@ int RunEvaluate(std::vector<std::string> args) {
     const cv::Mat1f predicted = model.value().PredictScene(scene.value());
     predict_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    const cv::Mat1f predicted_compared =
+        compared ? compared->PredictScene(scene.value()) : cv::Mat1f();
     const cv::Mat1f constant_map(s.stiffness.size(), static_cast<float>(constant));
     // Planners and the heuristic work inside the bin (a workspace ROI); the model sees it all.
     core::Scene in_bin = scene.value();
+    in_bin.height_m = in_bin.height_m.clone();  // masked below; the models saw the whole view
     if (spec.value().support.kind == sim::Support::Kind::kBin) {
       in_bin.height_m.setTo(0.0f, BinRoi(spec.value(), s.camera, 3) == 0);
     }
     const cv::Mat1f heuristic = HeuristicStiffness(in_bin, s.camera);
+    if (compared) {
+      rmse_compared.Add(core::StiffnessRmse255(s.stiffness, predicted_compared).value());
+      mssim_compared.Add(core::StiffnessMssim(s.stiffness, predicted_compared).value());
+    }
     rmse_model.Add(core::StiffnessRmse255(s.stiffness, predicted).value());
     rmse_const.Add(core::StiffnessRmse255(s.stiffness, constant_map).value());
     rmse_heur.Add(core::StiffnessRmse255(s.stiffness, heuristic).value());
@@ -448,13 +467,19 @@ int RunEvaluate(std::vector<std::string> args) {
     Execute(g.scene, raycaster.value(), world_from_camera,
             core::DetectGraspsStiffness(in_bin, s.camera, s.stiffness, gripper, stiffness_params),
             s.stiffness, s.labels, i, per_grasp, &oracle);
+    if (compared) {
+      Execute(g.scene, raycaster.value(), world_from_camera,
+              core::DetectGraspsStiffness(in_bin, s.camera, predicted_compared, gripper,
+                                          stiffness_params),
+              s.stiffness, s.labels, i, per_grasp, &stiff_compared);
+    }
   }
   bar.Update(n);
   std::sort(predict_ms.begin(), predict_ms.end());
   const double median_ms = predict_ms.empty() ? std::nan("") : predict_ms[predict_ms.size() / 2];
   const double fge_s = fge.gt_mean_stiffness.value();
   const double st_s = stiff.gt_mean_stiffness.value();
-  const json out = {
+  json out = {
       {"model", model_path},
       {"model_description", model.value().description()},
       {"data", data},
@@ -481,9 +506,21 @@ int RunEvaluate(std::vector<std::string> args) {
         // Paired percentile bootstrap over the grasp scenes (docs/stiffness.md, "Evaluation").
         {"versus_fge",
          {{"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}},
-          {"stiffness_model", VersusFge(stiff, fge)},
-          {"stiffness_ground_truth", VersusFge(oracle, fge)}}}}},
+          {"stiffness_model", Versus(stiff, fge)},
+          {"stiffness_ground_truth", Versus(oracle, fge)}}}}},
   };
+  if (compared) {
+    // The second model: its map's scores, its planner's figures, and the paired comparison
+    // of its planner with the first model's (compared / first).
+    out["compared_model"] = {
+        {"model", compare_path},
+        {"model_description", compared->description()},
+        {"image_metrics",
+         {{"rmse_255", Num(rmse_compared.value())}, {"mssim", Num(mssim_compared.value())}}}};
+    out["grasp_metrics"]["stiffness_compared_model"] = stiff_compared.ToJson();
+    out["grasp_metrics"]["versus_fge"]["stiffness_compared_model"] = Versus(stiff_compared, fge);
+    out["grasp_metrics"]["compared_versus_model"] = Versus(stiff_compared, stiff);
+  }
   std::cout << out.dump(2) << std::endl;
   return 0;
 }

@@ -4,7 +4,7 @@
 //                             [--object-weight W]
 //                             [--base-channels C] [--levels L] [--max-scenes N] [--threads T]
 //   softgrasp-train evaluate --model MODEL --data VALDIR [--train-data DIR] [--scenes N]
-//                            [--grasp-scenes N] [--threads T]
+//                            [--grasp-scenes N] [--compare MODEL2] [--threads T]
 
 #include <unistd.h>
 
@@ -36,9 +36,11 @@ constexpr const char* kUsage =
     "  softgrasp-sim dataset. Writes MODEL, MODEL.ckpt (resumable), MODEL_loss.csv/.png.\n"
     "       softgrasp-train evaluate --model MODEL --data VALDIR [--train-data DIR]\n"
     "                                [--scenes N] [--grasp-scenes N] [--centre-weight W]\n"
-    "                                [--per-grasp] [--threads T]\n"
+    "                                [--per-grasp] [--compare MODEL2] [--threads T]\n"
     "  Prints JSON: RMSE (0-255) and MSSIM of the model and two baselines, and the grasp\n"
-    "  metrics (GT mean stiffness in the grasp region; simulated execution) vs classic FGE.\n";
+    "  metrics (GT mean stiffness in the grasp region; simulated execution) vs classic FGE,\n"
+    "  with 95 % bootstrap intervals. --compare runs a second model's planner on the same\n"
+    "  scenes and compares it with the first's (paired).\n";
 
 int Fail(const std::string& message) {
   std::cerr << "softgrasp-train: " << message << "\n";
