@@ -179,6 +179,8 @@ TEST_F(TrainCliTest, BadCommandLinesExitTwoAndSayWhy) {
   };
   const fs::path model = *root_ / "bad" / "m.pt";
   const std::string train = "stiffness --data " + Data() + " --out " + model.string();
+  // An evaluate command line that is complete up to the option under test.
+  const std::string evaluate = "evaluate --model " + Shipped() + " --data " + Data();
   for (const Case& c : std::vector<Case>{
            {"", "missing command"},
            {"nonsense", "unknown command"},
@@ -195,29 +197,17 @@ TEST_F(TrainCliTest, BadCommandLinesExitTwoAndSayWhy) {
             "nowhere"},
            {"evaluate --data " + Data(), "--model MODEL is required"},
            {"evaluate --model " + Shipped(), "--data VALDIR is required"},
-           {"evaluate --model " + Shipped() + " --data " + Data(), "--train-data DIR"},
-           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 2",
-            "--constant in [0, 1]"},
-           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant ''",
-            "--constant in [0, 1]"},
-           {"evaluate --model " + Shipped() + " --data " + Data() +
-                " --constant 0.1 --centre-weight -1",
-            "--centre-weight must be"},
-           {"evaluate --model " + Shipped() + " --data " + Data() +
-                " --constant 0.1 --centre-weight 1x",
-            "--centre-weight must be"},
-           {"evaluate --model " + Shipped() + " --data " + Data() +
-                " --constant 0.1 --centre-weight inf",
-            "--centre-weight must be"},
-           {"evaluate --model " + Shipped() + " --data " + Data() +
-                " --constant 0.1 --grasp-scenes x",
-            "--grasp-scenes must be a count"},
+           {evaluate, "--train-data DIR"},
+           {evaluate + " --constant 2", "--constant in [0, 1]"},
+           {evaluate + " --constant ''", "--constant in [0, 1]"},
+           {evaluate + " --constant 0.1 --centre-weight -1", "--centre-weight must be"},
+           {evaluate + " --constant 0.1 --centre-weight 1x", "--centre-weight must be"},
+           {evaluate + " --constant 0.1 --centre-weight inf", "--centre-weight must be"},
+           {evaluate + " --constant 0.1 --grasp-scenes x", "--grasp-scenes must be a count"},
            {"evaluate --model " + (*root_ / "none.pt").string() + " --data " + Data() +
                 " --constant 0.1",
             "none.pt"},
-           {"evaluate --model " + Shipped() + " --data " + Data() + " --constant 0.1 --compare " +
-                (*root_ / "other.pt").string(),
-            "other.pt"},
+           {evaluate + " --constant 0.1 --compare " + (*root_ / "other.pt").string(), "other.pt"},
        }) {
     SCOPED_TRACE(c.args);
     const CliRun r = Train(c.args);
