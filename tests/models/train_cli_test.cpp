@@ -10,8 +10,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <numeric>
 #include <string>
+#include <vector>
 
 #include "sim/dataset/dataset.h"
 
@@ -131,6 +134,35 @@ TEST_F(TrainCliTest, EvaluateRebuildsTheScenesAndBeatsTheConstantMap) {
     EXPECT_EQ(outcomes, 3);
     ASSERT_EQ(p.at("per_grasp").size(), 3u);
     for (const json& g : p.at("per_grasp")) EXPECT_TRUE(g.at("true_mean_stiffness").is_number());
+    // by_object summarises the per-grasp records by the category under the grasp centre.
+    std::map<std::string, int> grasps_on, succeeded_on;
+    std::map<std::string, std::vector<double>> deformation_on;
+    for (const json& g : p.at("per_grasp")) {
+      const std::string category = g.at("object").get<std::string>();
+      ++grasps_on[category];
+      const std::string outcome = g.at("outcome").get<std::string>();
+      if (outcome == "succeeded") ++succeeded_on[category];
+      if (outcome == "succeeded" || outcome == "slipped") {
+        deformation_on[category].push_back(g.at("deformation_rate").get<double>());
+      }
+    }
+    ASSERT_EQ(p.at("by_object").size(), grasps_on.size());
+    int damaged = 0;
+    for (const auto& [category, counts] : p.at("by_object").items()) {
+      SCOPED_TRACE(category);
+      EXPECT_EQ(counts.at("grasps").get<int>(), grasps_on[category]);
+      EXPECT_EQ(counts.at("succeeded").get<int>(), succeeded_on[category]);
+      damaged += counts.at("damaged").get<int>();
+      const std::vector<double>& d = deformation_on[category];
+      if (d.empty()) {
+        EXPECT_TRUE(counts.at("mean_deformation_rate").is_null());
+      } else {
+        EXPECT_NEAR(counts.at("mean_deformation_rate").get<double>(),
+                    std::accumulate(d.begin(), d.end(), 0.0) / static_cast<double>(d.size()),
+                    1e-12);
+      }
+    }
+    EXPECT_NEAR(damaged, p.at("damage_rate").get<double>() * 3, 1e-9);
     // Bootstrap intervals over the 3 scenes bracket the figures they belong to.
     for (const char* figure : {"mean_gt_stiffness_in_region", "success_rate"}) {
       SCOPED_TRACE(figure);

@@ -188,6 +188,20 @@ Interval SceneInterval(std::size_t scenes, const SceneStatistic& statistic) {
 
 json IntervalJson(const Interval& ci) { return json::array({Num(ci.low), Num(ci.high)}); }
 
+/// One planner's executed grasps on one catalogue category (the object under the grasp centre).
+struct ObjectOutcomes {
+  int grasps = 0;
+  int succeeded = 0;
+  int damaged = 0;
+  Mean deformation_rate;  // as StrategyStats::deformation_rate
+  json ToJson() const {
+    return {{"grasps", grasps},
+            {"succeeded", succeeded},
+            {"damaged", damaged},
+            {"mean_deformation_rate", Num(deformation_rate.value())}};
+  }
+};
+
 struct StrategyStats {
   Mean gt_mean_stiffness;  // eq. 3.14 on the ground-truth map
   Mean deformation_rate;   // over grasps that closed on one object (succeeded or slipped)
@@ -197,6 +211,7 @@ struct StrategyStats {
   int damaged = 0;
   std::map<std::string, int> outcomes;
   std::map<std::string, std::string> example_reason;  // first reason per outcome
+  std::map<std::string, ObjectOutcomes> by_object;     // per category under the grasp centre
   json per_grasp = json::array();  // with --per-grasp: one record per executed top grasp
   // One entry per grasp scene, in scene order (the same for every planner), for the bootstrap:
   // NaN where the scene has no such figure (no grasp; no single-object contact to deform).
@@ -213,7 +228,9 @@ struct StrategyStats {
               {"damage_rate",
                attempts > 0 ? json(static_cast<double>(damaged) / attempts) : json(nullptr)},
               {"outcomes", outcomes},
-              {"example_reason", example_reason}};
+              {"example_reason", example_reason},
+              {"by_object", json::object()}};
+    for (const auto& [category, counts] : by_object) o["by_object"][category] = counts.ToJson();
     if (!scene_success.empty()) {
       const auto mean_of = [](const std::vector<double>& v) {
         return [&v](std::span<const int> sample) { return SampleMean(v, sample); };
@@ -307,6 +324,13 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
   const double true_mean = core::MeanStiffnessInGraspRegion(truth, g);
   stats->gt_mean_stiffness.Add(true_mean);
   stats->scene_gt_stiffness.back() = true_mean;
+  // The object under the grasp centre (labels are instance ids, 0 = support).
+  const int u = std::clamp(static_cast<int>(std::lround(g.center_u_px)), 0, labels.cols - 1);
+  const int v = std::clamp(static_cast<int>(std::lround(g.center_v_px)), 0, labels.rows - 1);
+  const sim::PlacedObject* object = scene.Find(labels(v, u));
+  const std::string category = object ? object->object->category : "none";
+  ObjectOutcomes& on_object = stats->by_object[category];
+  ++on_object.grasps;
   auto exec = sim::ExecuteGrasp(scene, raycaster, sim::SimGraspFromCamera(g, world_from_camera),
                                 sim::SimGripper{});
   if (!exec.ok()) {
@@ -315,12 +339,8 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
   }
   const sim::GraspExecution& e = exec.value();
   if (per_grasp) {
-    // The object under the grasp centre (labels are instance ids, 0 = support).
-    const int u = std::clamp(static_cast<int>(std::lround(g.center_u_px)), 0, labels.cols - 1);
-    const int v = std::clamp(static_cast<int>(std::lround(g.center_v_px)), 0, labels.rows - 1);
-    const sim::PlacedObject* object = scene.Find(labels(v, u));
     stats->per_grasp.push_back({{"scene", scene_index},
-                                {"object", object ? object->object->category : "none"},
+                                {"object", category},
                                 {"outcome", sim::GraspOutcomeName(e.outcome)},
                                 {"planner_mean_stiffness", Num(g.mean_stiffness)},
                                 {"true_mean_stiffness", Num(true_mean)},
@@ -332,13 +352,18 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
   stats->example_reason.emplace(sim::GraspOutcomeName(e.outcome), e.reason);
   if (e.outcome == sim::GraspOutcome::kSucceeded || e.outcome == sim::GraspOutcome::kSlipped) {
     stats->deformation_rate.Add(e.deformation_rate);
+    on_object.deformation_rate.Add(e.deformation_rate);
     stats->scene_deformation.back() = e.deformation_rate;
   }
   if (e.succeeded()) {
     ++stats->succeeded;
+    ++on_object.succeeded;
     stats->scene_success.back() = 1.0;
   }
-  if (e.damaged) ++stats->damaged;
+  if (e.damaged) {
+    ++stats->damaged;
+    ++on_object.damaged;
+  }
 }
 
 }  // namespace
