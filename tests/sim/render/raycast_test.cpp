@@ -10,16 +10,16 @@
 #include <vector>
 
 #include "service/mesh/mesh_check.h"
-#include "tests/sim/render/test_scenes.h"
+#include "tests/sim/test_scenes.h"
 
 namespace softgrasp::sim {
 namespace {
 
-using render_test::BigTable;
-using render_test::BoxMesh;
-using render_test::IcosphereMesh;
-using render_test::MakeObject;
-using render_test::Translation;
+using test_scenes::BigTable;
+using test_scenes::BoxMesh;
+using test_scenes::IcosphereMesh;
+using test_scenes::MakeObject;
+using test_scenes::Translation;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 

@@ -23,6 +23,7 @@
 #include "service/io/depth_codec.h"
 #include "sim/robot/robot_http.h"
 #include "sim/robot/robot_loop.h"
+#include "tests/sim/test_scenes.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -39,19 +40,8 @@ constexpr double kCameraHeightM = 0.55;
 std::shared_ptr<SimObject> Block(float stiffness, double mass_kg = 0.1) {
   auto object = std::make_shared<SimObject>();
   object->category = "block";
-  const Eigen::Vector3d lo = -kBlockSize / 2.0;
-  const Eigen::Vector3d hi = kBlockSize / 2.0;
-  for (int i = 0; i < 8; ++i) {
-    object->mesh_o.vertices.push_back(
-        {(i & 1) ? hi.x() : lo.x(), (i & 2) ? hi.y() : lo.y(), (i & 4) ? hi.z() : lo.z()});
-  }
-  constexpr int kQuads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                                {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : kQuads) {
-    object->mesh_o.faces.push_back({q[0], q[1], q[2]});
-    object->mesh_o.faces.push_back({q[0], q[2], q[3]});
-  }
-  object->vertex_stiffness.assign(8, stiffness);
+  object->mesh_o = test_scenes::BoxMesh(kBlockSize / 2.0);
+  object->vertex_stiffness.assign(object->mesh_o.vertices.size(), stiffness);
   object->mass_kg = mass_kg;
   return object;
 }

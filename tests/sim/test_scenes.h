@@ -1,5 +1,5 @@
 #pragma once
-/// Analytic test geometry for the render tests: boxes and icospheres as SimObjects.
+/// Analytic test geometry for the simulator tests: boxes and icospheres as SimObjects.
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -10,7 +10,7 @@
 
 #include "sim/scene/scene.h"
 
-namespace softgrasp::sim::render_test {
+namespace softgrasp::sim::test_scenes {
 
 /// An axis-aligned box [-half, half] in O, 12 outward triangles (corner index = x + 2y + 4z).
 inline mesh::TriangleMesh BoxMesh(const Eigen::Vector3d& half_m) {
@@ -94,4 +94,4 @@ inline Support BigTable(double size_m = 6.0) {
   return support;
 }
 
-}  // namespace softgrasp::sim::render_test
+}  // namespace softgrasp::sim::test_scenes
