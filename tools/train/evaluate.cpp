@@ -211,7 +211,7 @@ struct StrategyStats {
   int damaged = 0;
   std::map<std::string, int> outcomes;
   std::map<std::string, std::string> example_reason;  // first reason per outcome
-  std::map<std::string, ObjectOutcomes> by_object;     // per category under the grasp centre
+  std::map<std::string, ObjectOutcomes> by_object;    // per category under the grasp centre
   json per_grasp = json::array();  // with --per-grasp: one record per executed top grasp
   // One entry per grasp scene, in scene order (the same for every planner), for the bootstrap:
   // NaN where the scene has no such figure (no grasp; no single-object contact to deform).

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "service/mesh/mesh_check.h"
+#include "tests/sim/test_scenes.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -343,17 +344,12 @@ TEST(CatalogueSplit, ValidationShapesComeFromHeldOutBands) {
   }
 }
 
+/// A cube of side_m with its lowest corner at lo.
 mesh::TriangleMesh Cube(double side_m, const Eigen::Vector3d& lo) {
-  mesh::TriangleMesh m;
-  for (int i = 0; i < 8; ++i) {
-    m.vertices.push_back({lo.x() + ((i & 1) ? side_m : 0.0), lo.y() + ((i & 2) ? side_m : 0.0),
-                          lo.z() + ((i & 4) ? side_m : 0.0)});
-  }
-  constexpr int kQuads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                                {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : kQuads) {
-    m.faces.push_back({q[0], q[1], q[2]});
-    m.faces.push_back({q[0], q[2], q[3]});
+  const Eigen::Vector3d half = Eigen::Vector3d::Constant(side_m / 2);
+  mesh::TriangleMesh m = test_scenes::BoxMesh(half);
+  for (auto& v : m.vertices) {
+    for (int k = 0; k < 3; ++k) v[k] += lo[k] + half[k];
   }
   return m;
 }

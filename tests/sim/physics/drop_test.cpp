@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "service/mesh/mesh_check.h"
+#include "tests/sim/test_scenes.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -36,18 +37,8 @@ std::shared_ptr<SimObject> WithMass(mesh::TriangleMesh mesh, double volume_m3,
 
 TestShape Box(double sx_m, double sy_m, double sz_m) {
   const Eigen::Vector3d h(sx_m / 2, sy_m / 2, sz_m / 2);
-  mesh::TriangleMesh m;
-  for (int i = 0; i < 8; ++i) {
-    m.vertices.push_back(
-        {(i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z()});
-  }
-  constexpr int kQuads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                                {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : kQuads) {
-    m.faces.push_back({q[0], q[1], q[2]});
-    m.faces.push_back({q[0], q[2], q[3]});
-  }
-  return {TestShape::Kind::kBox, h, 0, WithMass(std::move(m), sx_m * sy_m * sz_m, "box")};
+  return {TestShape::Kind::kBox, h, 0,
+          WithMass(test_scenes::BoxMesh(h), sx_m * sy_m * sz_m, "box")};
 }
 
 // A closed cylinder along z, `n` segments, with a centre vertex on each cap.
