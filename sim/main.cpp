@@ -32,7 +32,8 @@ constexpr const char* kUsage =
     "  Simulated scenes (catalogue objects dropped with Bullet, rendered with Embree): 16-bit\n"
     "  depth (mm), 8-bit stiffness and deformability, 16-bit instance labels and one JSON\n"
     "  manifest per scene, in shards, plus index.json (docs/simulator.md). Defaults: objects\n"
-    "  3-8, split train, support bin, noise on, fractals 0 (probability that an object is a\n"
+    "  3-8 (at most 40; 15-30 makes dense bins whose piles reach the walls), split train,\n"
+    "  support bin, noise on, fractals 0 (probability that an object is a\n"
     "  fractal mesh), fractal stiffness drawn per object unless K (0.1-1) is given. Each\n"
     "  --user-mesh (OBJ/PLY/STL in metres; constant stiffness K, default 0.5, or a JSON file\n"
     "  {\"vertex_stiffness\": [...]}) joins the draw beside the catalogue categories. The\n"
@@ -81,8 +82,9 @@ std::string ParseGenerateArgs(const std::vector<std::string>& args, sim::Dataset
     } else if (flag == "--seed" && ParseInt(value, &n) && n >= 0) {
       params->seed = static_cast<std::uint64_t>(n);
     } else if (flag == "--objects") {
-      if (!ParseRange(value, &n, &m) || n < 1 || m > 8 || n > m)
-        return "--objects must be N or MIN-MAX within 1-8";
+      if (!ParseRange(value, &n, &m) || n < 1 || m > sim::kMaxObjectsPerScene || n > m)
+        return "--objects must be N or MIN-MAX within 1-" +
+               std::to_string(sim::kMaxObjectsPerScene);
       params->spec.min_objects = static_cast<int>(n);
       params->spec.max_objects = static_cast<int>(m);
     } else if (flag == "--split" && (value == "train" || value == "val")) {

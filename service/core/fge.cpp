@@ -122,7 +122,8 @@ Grasp MakeGrasp(const Candidate& c, const Slice& slice, const Scene& scene, cons
 FgeMaps ComputeFgeMaps(const Scene& scene, const Camera& camera, const Gripper& gripper,
                        const FgeParams& params, double angle_rad, double contact_height_m) {
   fge_detail::CheckInputs(camera, gripper, params);
-  const auto search = fge_detail::SearchSlices(scene.height_m, gripper, params);
+  const auto search =
+      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, params);
   fge_detail::FastFge fast(scene, camera, gripper, params,
                            {fge_detail::SliceAt(contact_height_m, gripper, params)},
                            search.graspable);
@@ -133,7 +134,8 @@ std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, con
                                    const FgeParams& params) {
   fge_detail::CheckInputs(camera, gripper, params);
   if (scene.height_m.empty()) return {};
-  const auto search = fge_detail::SearchSlices(scene.height_m, gripper, params);
+  const auto search =
+      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, params);
   const std::vector<Slice>& slices = search.slices;
   if (slices.empty()) return {};
   fge_detail::FastFge fast(scene, camera, gripper, params, slices, search.graspable);

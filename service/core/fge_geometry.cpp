@@ -111,12 +111,14 @@ struct FreeObjects {
 // Free objects at the lowest level (from lowest_m up in steps) where they cover n pixels.
 // Objects leaning on a bin wall separate from it higher up; robot parts reaching into the image
 // only separate near their tops, so objects on the floor win.
-std::optional<FreeObjects> FindFreeObjects(const cv::Mat1f& height_m, double lowest_m,
-                                           double step_m, int n) {
+// Only pixels in `allowed` (if not empty) count.
+std::optional<FreeObjects> FindFreeObjects(const cv::Mat1f& height_m, const cv::Mat1b& allowed,
+                                           double lowest_m, double step_m, int n) {
   double max_height = 0;
   cv::minMaxLoc(height_m, nullptr, &max_height);
   for (double level = lowest_m; level < max_height; level += step_m) {
     cv::Mat1b pixels = FreeObjectPixels(height_m, level);
+    if (!allowed.empty()) pixels &= allowed;
     if (auto top = NthHighestHeight(height_m, pixels, n)) return FreeObjects{*top, pixels};
   }
   return std::nullopt;
@@ -187,18 +189,19 @@ Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& 
   return {index, contact_height_m, tip_height_m, tip_height_m + gripper.finger_length_mm * kMmToM};
 }
 
-SliceSearch SearchSlices(const cv::Mat1f& height_m, const Gripper& gripper,
-                         const FgeParams& params) {
+SliceSearch SearchSlices(const cv::Mat1f& height_m, const cv::Mat1b& contact_allowed,
+                         const Gripper& gripper, const FgeParams& params) {
   const int n = std::max(1, static_cast<int>(std::ceil(params.min_object_area_px)));
   // Nothing lower than this can start a slice whose fingertips clear the floor.
   const double lowest_m = params.floor_clearance_m + params.grip_depth_m;
   SliceSearch search;
   std::optional<double> top;
-  if (auto free = FindFreeObjects(height_m, lowest_m, params.height_step_m, n)) {
+  if (auto free = FindFreeObjects(height_m, contact_allowed, lowest_m, params.height_step_m, n)) {
     top = free->top_m;
     search.graspable = free->pixels;
   } else {  // every object touches the border at every level: let them all count
-    search.graspable = cv::Mat1b(height_m.size(), 255);
+    search.graspable =
+        contact_allowed.empty() ? cv::Mat1b(height_m.size(), 255) : contact_allowed.clone();
     top = NthHighestHeight(height_m, search.graspable, n);
   }
   if (!top) return search;

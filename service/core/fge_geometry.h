@@ -94,8 +94,10 @@ struct SliceSearch {
 /// If there is no free object at any level, all pixels count and all are graspable. Slices step
 /// down by height_step_m; a step that would put the fingertips under floor_clearance_m is replaced
 /// by a last slice with the tips exactly at the clearance (low objects keep a grasp at their base).
-SliceSearch SearchSlices(const cv::Mat1f& height_m, const Gripper& gripper,
-                         const FgeParams& params);
+/// Only surfaces in `contact_allowed` (Scene::contact_allowed; empty = all) may be graspable or
+/// set the top slice.
+SliceSearch SearchSlices(const cv::Mat1f& height_m, const cv::Mat1b& contact_allowed,
+                         const Gripper& gripper, const FgeParams& params);
 Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& params,
               int index = 0);
 

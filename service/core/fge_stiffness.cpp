@@ -134,7 +134,7 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
         "DetectGraspsStiffness: the stiffness map must have the scene's "
         "size");
   }
-  const auto search = fge_detail::SearchSlices(scene.height_m, gripper, fp);
+  const auto search = fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, fp);
   if (search.slices.empty()) return {};
   fge_detail::FastFge fast(scene, camera, gripper, fp, search.slices, search.graspable);
 

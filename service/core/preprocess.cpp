@@ -2,18 +2,18 @@
 // Formulas and parameters: docs/fge.md, section "Preprocessing".
 #include "service/core/preprocess.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <optional>
-#include <random>
-#include <string>
-#include <vector>
-
-#include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/photo.hpp>
+#include <optional>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace softgrasp::core {
 namespace {
@@ -299,6 +299,24 @@ Result<Scene> Preprocess(const DepthImage& depth, const Camera& camera,
   scene.depth_filled_m = FillMissing(depth.depth_m, scene.missing_mask, params.inpaint_radius_px);
   scene.height_m = HeightAboveFloor(scene.depth_filled_m, camera, scene.floor);
   return scene;
+}
+
+void RestrictContact(Scene& scene, const cv::Mat1b& region_of_interest, double min_depth_m) {
+  const cv::Size size = scene.depth_filled_m.size();
+  if (!region_of_interest.empty() && region_of_interest.size() != size) {
+    throw std::invalid_argument("RestrictContact: the region of interest is " +
+                                std::to_string(region_of_interest.cols) + "x" +
+                                std::to_string(region_of_interest.rows) + ", the scene " +
+                                std::to_string(size.width) + "x" + std::to_string(size.height));
+  }
+  if (!(std::isfinite(min_depth_m) && min_depth_m >= 0)) {
+    throw std::invalid_argument("RestrictContact: min_depth_m must be finite and >= 0");
+  }
+  cv::Mat1b allowed(size, 255);
+  if (!region_of_interest.empty()) allowed.setTo(0, region_of_interest == 0);
+  if (min_depth_m > 0) allowed.setTo(0, scene.depth_filled_m < static_cast<float>(min_depth_m));
+  if (!scene.contact_allowed.empty()) allowed &= scene.contact_allowed;
+  scene.contact_allowed = allowed;
 }
 
 }  // namespace softgrasp::core

@@ -28,11 +28,23 @@ struct Scene {
   cv::Mat1f height_m;        ///< height of each pixel's surface above the floor plane, metres
   Plane floor;               ///< the fitted floor, camera frame
   double missing_fraction = 0;
+  /// 255 where a surface may be grasped (a contact surface); elsewhere surfaces are obstacles
+  /// only. Empty = everywhere. Set by RestrictContact.
+  cv::Mat1b contact_allowed;
 };
 
 /// Fills missing pixels, fits the floor (RANSAC plane over the deepest surface), and measures
 /// heights above it. Returns kUnprocessable when too few pixels are valid to do that.
 Result<Scene> Preprocess(const DepthImage& depth, const Camera& camera,
                          const PreprocessParams& params = {});
+
+/// Where the planners may put contacts: inside `region_of_interest` (image size, non-zero =
+/// allowed; empty = the whole image) and on surfaces at least `min_depth_m` from the camera
+/// along the optical axis (0 = no limit). Surfaces outside stay obstacles: e.g. the robot's own
+/// fingers in a wrist camera's view, or the neighbours of the one object a mask selects.
+/// Repeated calls narrow the allowed region further.
+/// @throws std::invalid_argument if the mask's size differs from the scene's or min_depth_m is
+/// negative or not finite.
+void RestrictContact(Scene& scene, const cv::Mat1b& region_of_interest, double min_depth_m);
 
 }  // namespace softgrasp::core

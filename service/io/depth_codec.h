@@ -33,6 +33,13 @@ core::Result<DepthFormat> SniffDepthFormat(std::string_view bytes);
 core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
                                            const DepthDecodeOptions& options = {});
 
+/// Decodes a region-of-interest mask (GQ-CNN's `segmask` convention): a PNG of any bit depth and
+/// colour type (grey, grey+alpha, RGB, RGBA, palette; interlaced or not) whose pixel is allowed
+/// (255) when any colour sample is non-zero; alpha is ignored. Errors as DecodeDepth's
+/// (kUnsupportedMediaType for a file that is not a PNG, kInvalidArgument when corrupt or
+/// truncated, kPayloadTooLarge over max_pixels), with field = "segmask".
+core::Result<cv::Mat1b> DecodeMask(std::string_view bytes, std::int64_t max_pixels);
+
 /// Parses GQ-CNN's `.intr` JSON: {"_fx", "_fy", "_cx", "_cy", "_width", "_height", "_frame"?}.
 /// kInvalidArgument (field = the key at fault) when malformed, missing or non-positive.
 core::Result<core::Camera> ParseIntrinsicsJson(std::string_view json);

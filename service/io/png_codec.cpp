@@ -3,7 +3,9 @@
 // from memory with its messages captured (nothing is printed). cv::imencode writes PNGs.
 #include <png.h>
 
+#include <algorithm>
 #include <bit>
+#include <iterator>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -153,7 +155,94 @@ core::Result<cv::Mat1w> DecodeCounts(std::string_view bytes, const PngHeader& he
   return counts;
 }
 
+constexpr int kColorPalette = 3;
+constexpr int kColorMaskAlpha = 4;  // bit of the colour type: an alpha channel follows
+
+core::Error MaskError(core::Error error) {
+  error.field = "segmask";
+  error.message = "segmask: " + error.message;
+  return error;
+}
+
+/// Samples per pixel after the mask transforms (palette expanded, alpha stripped).
+int MaskChannels(int color_type) {
+  if (color_type == kColorPalette) return 3;
+  return (color_type & 2) ? 3 : 1;  // colour bit set: RGB(A); otherwise grey(+alpha)
+}
+
+/// Decodes a mask PNG into `rows` of `row_bytes` each: 8- or 16-bit samples, grey or RGB, no
+/// alpha; false after a libpng error (longjmp target: nothing here has a destructor).
+bool ReadMaskRows(png_structp png, png_infop info, const PngHeader& header,
+                  png_size_t row_bytes, png_bytepp rows) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  png_set_benign_errors(png, 0);
+  png_read_info(png, info);
+  const int color_type = png_get_color_type(png, info);
+  if (png_get_image_width(png, info) != header.width ||
+      png_get_image_height(png, info) != header.height ||
+      png_get_bit_depth(png, info) != header.bit_depth || color_type != header.color_type) {
+    png_error(png, "the image header changed while decoding");
+  }
+  if (color_type == kColorPalette) png_set_palette_to_rgb(png);
+  if (header.bit_depth < 8) png_set_expand_gray_1_2_4_to_8(png);
+  if (color_type & kColorMaskAlpha) png_set_strip_alpha(png);
+  png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  if (png_get_rowbytes(png, info) != row_bytes) png_error(png, "unexpected row size");
+  png_read_image(png, rows);
+  return true;
+}
+
 }  // namespace
+
+core::Result<cv::Mat1b> DecodeMask(std::string_view bytes, std::int64_t max_pixels) {
+  if (bytes.size() < kSignatureSize || png_sig_cmp(reinterpret_cast<png_const_bytep>(bytes.data()),
+                                                   0, kSignatureSize) != 0) {
+    return MaskError(DepthError(ErrorCode::kUnsupportedMediaType, "the mask must be a PNG"));
+  }
+  const auto header = ReadIhdr(bytes);
+  if (!header) return MaskError(header.error());
+  const PngHeader& h = header.value();
+  static constexpr int kValidDepths[] = {1, 2, 4, 8, 16};
+  const bool depth_ok = std::find(std::begin(kValidDepths), std::end(kValidDepths), h.bit_depth) !=
+                        std::end(kValidDepths);
+  if (!depth_ok || h.color_type > 6 || h.color_type == 1 || h.color_type == 5) {
+    return MaskError(DepthError(ErrorCode::kInvalidArgument,
+                                "corrupt PNG: bit depth " + std::to_string(h.bit_depth) +
+                                    " with " + ColorTypeName(h.color_type)));
+  }
+  if (auto error = detail::CheckImageSize(h.height, h.width, max_pixels, "PNG")) {
+    return MaskError(*error);
+  }
+  const int bytes_per_sample = h.bit_depth == 16 ? 2 : 1;
+  const int bytes_per_pixel = MaskChannels(h.color_type) * bytes_per_sample;
+  const auto row_bytes = static_cast<png_size_t>(h.width) * static_cast<png_size_t>(bytes_per_pixel);
+  std::vector<png_byte> buffer(row_bytes * static_cast<std::size_t>(h.height));
+  std::vector<png_bytep> rows(static_cast<std::size_t>(h.height));
+  for (std::size_t r = 0; r < rows.size(); ++r) rows[r] = buffer.data() + r * row_bytes;
+
+  PngSource source{bytes};
+  PngReadStruct reader;
+  reader.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &source, OnPngError, OnPngWarning);
+  if (reader.png) reader.info = png_create_info_struct(reader.png);
+  if (!reader.info) return MaskError(DepthError(ErrorCode::kInternal, "cannot create a PNG reader"));
+  png_set_read_fn(reader.png, &source, ReadFromMemory);
+  if (!ReadMaskRows(reader.png, reader.info, h, row_bytes, rows.data())) {
+    return MaskError(DepthError(ErrorCode::kInvalidArgument,
+                                "corrupt or truncated PNG: " + detail::Printable(source.error, 120)));
+  }
+  cv::Mat1b mask(static_cast<int>(h.height), static_cast<int>(h.width));
+  for (int v = 0; v < mask.rows; ++v) {
+    const png_byte* in = rows[static_cast<std::size_t>(v)];
+    std::uint8_t* out = mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < mask.cols; ++u, in += bytes_per_pixel) {
+      std::uint8_t any = 0;
+      for (int b = 0; b < bytes_per_pixel; ++b) any |= in[b];
+      out[u] = any ? 255 : 0;
+    }
+  }
+  return mask;
+}
 
 namespace detail {
 

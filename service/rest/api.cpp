@@ -42,7 +42,7 @@ json GraspToJson(const core::Grasp& g, int rank) {
       {"grasp_height_m", g.grasp_height_m},
       {"height_step", g.height_step},
       // Mean of the stiffness map over the contact surface in the closing region, in [0, 1];
-      // null when no model is loaded.
+      // null when the model did not run (none loaded, or strategy=fge without mean_stiffness).
       {"mean_stiffness", std::isfinite(g.mean_stiffness) ? json(g.mean_stiffness) : json()},
       {"pose",
        {{"frame", "camera"},
@@ -148,14 +148,19 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
   const auto preprocess_start = Clock::now();
   auto preprocessed = core::Preprocess(up.depth, up.camera);
   if (!preprocessed.ok()) return ErrorToResponse(preprocessed.error());
-  const core::Scene& scene = preprocessed.value();
+  core::Scene scene = std::move(preprocessed).value();
+  core::RestrictContact(scene, in.region_of_interest, in.min_depth_m);
   const double preprocess_ms = MillisecondsSince(preprocess_start);
 
-  // The map serves the stiffness strategy, the stiffness overlay and every grasp's
-  // mean_stiffness, so it is computed whenever a model is loaded.
+  // The model runs only when the answer shows its map: the stiffness strategy, the stiffness
+  // overlay, or FGE grasps with mean_stiffness asked for.
+  const bool need_stiffness =
+      model && (in.strategy == GraspStrategy::kStiffness ||
+                (png && in.overlay == OverlayBackground::kStiffness) ||
+                (!png && in.report_mean_stiffness));
   const auto stiffness_start = Clock::now();
   cv::Mat1f stiffness;
-  if (model) stiffness = model->PredictScene(scene);
+  if (need_stiffness) stiffness = model->PredictScene(scene);
   const double stiffness_ms = MillisecondsSince(stiffness_start);
   if (png && !in.draw_grasps) {
     return PngResponse(io::ColorizeStiffness(stiffness, models::kBackgroundThreshold), 0);
@@ -169,7 +174,7 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
     grasps = core::DetectGraspsStiffness(scene, up.camera, stiffness, in.gripper, params);
   } else {
     grasps = core::DetectGraspsFge(scene, up.camera, in.gripper, in.fge);
-    if (model) {
+    if (!stiffness.empty()) {
       for (core::Grasp& g : grasps) {
         g.mean_stiffness = core::ContactMeanStiffness(scene, stiffness, g);
       }
@@ -191,7 +196,7 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
   json camera = CameraToJson(up.camera);
   camera["source"] = up.camera_source;
   json timing = {{"decode", decode_ms}, {"preprocess", preprocess_ms}};
-  if (model) timing["stiffness"] = stiffness_ms;
+  if (need_stiffness) timing["stiffness"] = stiffness_ms;
   timing["detect"] = detect_ms;
   timing["total"] = MillisecondsSince(start);
   json body = {
@@ -207,6 +212,8 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
        {{"normal", {scene.floor.n[0], scene.floor.n[1], scene.floor.n[2]}},
         {"d_m", scene.floor.d}}},
       {"gripper", GripperToJson(in.gripper)},
+      {"contact_region",
+       {{"segmask", !in.region_of_interest.empty()}, {"min_depth_m", in.min_depth_m}}},
       {"grasps", list},
       {"timing_ms", timing},
   };

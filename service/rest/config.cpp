@@ -115,6 +115,7 @@ Setter WorkspaceBox(bridge::Workspace* target) {
 }
 
 constexpr double kMaxBytes = 4.0 * 1024 * 1024 * 1024;
+constexpr double kMaxMinDepthM = 100.0;
 
 std::map<std::string, std::map<std::string, Setter>> Sections(ServiceConfig& c) {
   auto& s = c.server;
@@ -157,7 +158,8 @@ std::map<std::string, std::map<std::string, Setter>> Sections(ServiceConfig& c) 
         {"nms_radius_px", Number(&f.nms_radius_px, 0, 10000)}}},
       {"depth",
        {{"png_unit_m", Number(&c.png_unit_m, 1e-6, 1.0)},
-        {"max_image_pixels", Number(&c.max_image_pixels, 1, 1e10)}}},
+        {"max_image_pixels", Number(&c.max_image_pixels, 1, 1e10)},
+        {"min_depth_m", Number(&c.min_depth_m, 0.0, kMaxMinDepthM)}}},
       {"fractals",
        {{"max_points", Number(&c.max_fractal_points, 100, 1e6)},
         {"max_attempts", Number(&c.max_fractal_attempts, 1, 1e7)}}},
@@ -310,6 +312,15 @@ core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config) {
   if (const char* host = std::getenv("SOFTGRASP_HOST")) config.server.host = host;
   if (const char* web_root = std::getenv("SOFTGRASP_WEB_ROOT")) config.web_root = web_root;
   if (const char* model = std::getenv("SOFTGRASP_STIFFNESS_MODEL")) config.stiffness_model = model;
+  if (const char* v = std::getenv("SOFTGRASP_MIN_DEPTH_M")) {
+    auto d = ParseDouble(v, "SOFTGRASP_MIN_DEPTH_M");
+    if (!d) return d.error();
+    if (d.value() < 0 || d.value() > kMaxMinDepthM) {
+      return MakeError(ErrorCode::kInvalidArgument, "SOFTGRASP_MIN_DEPTH_M must be in [0, 100]",
+                       "SOFTGRASP_MIN_DEPTH_M");
+    }
+    config.min_depth_m = d.value();
+  }
   struct IntVar {
     const char* name;
     std::function<void(long long)> set;
@@ -407,7 +418,8 @@ std::string UsageText() {
          "  pix2stiffness model for /v1/stiffness and strategy=stiffness (default: the shipped\n"
          "  ../models/pix2stiffness.pt; 'none' serves without one). Environment: SOFTGRASP_HOST,\n"
          "  SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,\n"
-         "  SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT, SOFTGRASP_STIFFNESS_MODEL.\n"
+         "  SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_MIN_DEPTH_M, SOFTGRASP_WEB_ROOT,\n"
+         "  SOFTGRASP_STIFFNESS_MODEL.\n"
          "  Robot endpoints: SOFTGRASP_ROBOT_ENABLED, SOFTGRASP_ROBOT_TOKENS,\n"
          "  SOFTGRASP_ROBOT_DOMAIN_ID, SOFTGRASP_ROBOT_DDS_CONFIG, SOFTGRASP_ROBOT_JOURNAL_DIR,\n"
          "  SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S (docs/robot-api.md).\n"
@@ -453,7 +465,10 @@ std::string ConfigToJson(const ServiceConfig& c) {
         {"seam_step_m", f.seam_step_m},
         {"top_k", f.top_k},
         {"nms_radius_px", f.nms_radius_px}}},
-      {"depth", {{"png_unit_m", c.png_unit_m}, {"max_image_pixels", c.max_image_pixels}}},
+      {"depth",
+       {{"png_unit_m", c.png_unit_m},
+        {"max_image_pixels", c.max_image_pixels},
+        {"min_depth_m", c.min_depth_m}}},
       {"fractals",
        {{"max_points", c.max_fractal_points}, {"max_attempts", c.max_fractal_attempts}}},
       {"web", {{"root", c.web_root}}},

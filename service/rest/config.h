@@ -40,6 +40,10 @@ struct ServiceConfig {
   core::FgeParams fge;
   double png_unit_m = 0.001;  ///< metres per 16-bit PNG count unless the request says
   long long max_image_pixels = 4096LL * 4096;  ///< decompression-bomb guard, before decoding
+  /// Minimum working distance: surfaces nearer the camera than this (along its axis) are never
+  /// grasped, only avoided (e.g. the gripper's own fingers in a wrist camera). 0 = no limit;
+  /// requests may override it with the field min_depth_m.
+  double min_depth_m = 0.0;
   int max_fractal_points = 200'000;            ///< POST /v1/fractals "points" cap (400 above it)
   int max_fractal_attempts = 20'000;  ///< IFS draws before a fractal request gives up (422)
   /// Folder of the built web page served at GET / and /assets/ (scripts/build.sh writes it to
@@ -63,7 +67,8 @@ std::string DefaultJournalDir();
 core::Result<ServiceConfig> ApplyConfigJson(ServiceConfig config, const std::string& json_text);
 
 /// Applies SOFTGRASP_HOST, SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,
-/// SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_WEB_ROOT, SOFTGRASP_STIFFNESS_MODEL, and the robot settings SOFTGRASP_ROBOT_ENABLED,
+/// SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_MIN_DEPTH_M, SOFTGRASP_WEB_ROOT,
+/// SOFTGRASP_STIFFNESS_MODEL, and the robot settings SOFTGRASP_ROBOT_ENABLED,
 /// SOFTGRASP_ROBOT_DOMAIN_ID, SOFTGRASP_ROBOT_DDS_CONFIG, SOFTGRASP_ROBOT_TOKENS (comma-separated),
 /// SOFTGRASP_ROBOT_JOURNAL_DIR, SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S from the environment.
 core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config);

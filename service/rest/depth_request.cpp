@@ -21,6 +21,7 @@ struct RequestFields {
   std::map<std::string, std::string> values;
   std::optional<std::string> depth_bytes;
   std::optional<std::string> intrinsics_json;
+  std::optional<std::string> segmask_bytes;
 };
 
 bool IsRawDepthContentType(std::string_view type) {
@@ -44,6 +45,8 @@ core::Result<RequestFields> CollectFields(const http::Request& request) {
         fields.depth_bytes = std::move(part.data);
       } else if (part.name == "intrinsics") {
         fields.intrinsics_json = std::move(part.data);
+      } else if (part.name == "segmask") {
+        fields.segmask_bytes = std::move(part.data);
       } else {
         fields.values[part.name] = std::move(part.data);
       }
@@ -100,6 +103,7 @@ const std::map<std::string, NumericOption>& NumericOptions() {
       {"num_height_steps", {1, 20, true, [](GraspRequest& r, double v) { r.fge.num_height_steps = static_cast<int>(v); }}},
       {"height_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.fge.height_step_m = v / 1000.0; }}},
       {"grip_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.fge.grip_depth_m = v / 1000.0; }}},
+      {"min_depth_m", {0, 100, false, [](GraspRequest& r, double v) { r.min_depth_m = v; }}},
   };
   return options;
 }
@@ -235,10 +239,11 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   GraspRequest out;
   out.gripper = config.default_gripper;
   out.fge = config.fge;
+  out.min_depth_m = config.min_depth_m;
 
   for (const auto& [key, text] : fields.values) {
     if (key == "format" || key == "strategy" || key == "draw" || key == "overlay" ||
-        IsUploadField(key)) {
+        key == "mean_stiffness" || IsUploadField(key)) {
       continue;
     }
     const auto option = NumericOptions().find(key);
@@ -280,10 +285,31 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   auto draw = ParseChoice<bool, 2>(fields, "draw", true, {"grasps", "none"}, {true, false});
   if (!draw.ok()) return draw.error();
   out.draw_grasps = draw.value();
+  auto report = ParseChoice<bool, 2>(fields, "mean_stiffness", false, {"true", "false"},
+                                     {true, false});
+  if (!report.ok()) return report.error();
+  out.report_mean_stiffness = report.value();
+  if (out.report_mean_stiffness && !stiffness_model_loaded) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "mean_stiffness needs a stiffness model and none is loaded", "mean_stiffness");
+  }
 
   auto upload = DecodeUpload(fields, config);
   if (!upload.ok()) return upload.error();
   out.upload = std::move(upload).value();
+  if (fields.segmask_bytes) {
+    auto mask = io::DecodeMask(*fields.segmask_bytes, config.max_image_pixels);
+    if (!mask.ok()) return mask.error();
+    const core::DepthImage& depth = out.upload.depth;
+    if (mask.value().cols != depth.width() || mask.value().rows != depth.height()) {
+      return MakeError(ErrorCode::kUnprocessable,
+                       "segmask is " + std::to_string(mask.value().cols) + "x" +
+                           std::to_string(mask.value().rows) + " but the depth image is " +
+                           std::to_string(depth.width()) + "x" + std::to_string(depth.height()),
+                       "segmask");
+    }
+    out.region_of_interest = std::move(mask).value();
+  }
   return out;
 }
 
@@ -296,6 +322,11 @@ core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& reques
     if (key != "format" && !IsUploadField(key)) {
       return MakeError(ErrorCode::kInvalidArgument, "unknown field '" + key + "'", key);
     }
+  }
+  if (fields.segmask_bytes) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "unknown field 'segmask' (a region of interest applies to /v1/grasps)",
+                     "segmask");
   }
   StiffnessRequest out;
   auto format = ParseChoice<StiffnessFormat, 4>(

@@ -43,6 +43,14 @@ struct GraspRequest {
   bool draw_grasps = true;
   /// PNG answers only: field "overlay" = "depth" (default) or "stiffness" (the model's map).
   OverlayBackground overlay = OverlayBackground::kDepth;
+  /// File part "segmask" (GQ-CNN's convention: a PNG of the depth's size, non-zero = allowed):
+  /// grasps only with contact on the mask. Empty = the whole image.
+  cv::Mat1b region_of_interest;
+  /// Field "min_depth_m" (default: the configuration's): nearer surfaces are obstacles only.
+  double min_depth_m = 0.0;
+  /// Field "mean_stiffness" = "true" | "false": whether strategy=fge grasps report the model's
+  /// mean stiffness (it costs a model run). Default false; the stiffness strategy always does.
+  bool report_mean_stiffness = false;
 };
 
 /// `stiffness_model_loaded`: whether strategy=stiffness and overlay=stiffness can be served;

@@ -56,9 +56,12 @@ core::Result<SimObject> MakeFractalObject(const SceneSpec& spec, std::uint64_t o
 }  // namespace
 
 std::optional<core::Error> ValidateSceneSpec(const SceneSpec& spec) {
-  if (spec.min_objects < 1 || spec.max_objects > 8 || spec.min_objects > spec.max_objects) {
+  if (spec.min_objects < 1 || spec.max_objects > kMaxObjectsPerScene ||
+      spec.min_objects > spec.max_objects) {
     return MakeError(ErrorCode::kInvalidArgument,
-                     "objects must be MIN-MAX with 1 <= MIN <= MAX <= 8", "objects");
+                     "objects must be MIN-MAX with 1 <= MIN <= MAX <= " +
+                         std::to_string(kMaxObjectsPerScene),
+                     "objects");
   }
   if (!(spec.fractal_probability >= 0.0 && spec.fractal_probability <= 1.0)) {
     return MakeError(ErrorCode::kInvalidArgument, "fractal_probability must be in [0, 1]",

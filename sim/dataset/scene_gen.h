@@ -19,8 +19,11 @@
 
 namespace softgrasp::sim {
 
+/// Most objects one scene may hold: dense bins (piles of 15-30 objects that reach the walls).
+inline constexpr int kMaxObjectsPerScene = 40;
+
 struct SceneSpec {
-  int min_objects = 3;  ///< objects per scene, drawn uniformly in [min, max]; 1..8
+  int min_objects = 3;  ///< objects per scene, drawn uniformly in [min, max]; 1..kMaxObjectsPerScene
   int max_objects = 8;
   ShapeSplit split = ShapeSplit::kTrain;
   Support support;

@@ -83,8 +83,9 @@ std::string ParseRobotArgs(const std::vector<std::string>& args, RobotCommandLin
       if (const std::string problem = LoadSceneManifest(value, out); !problem.empty())
         return problem;
     } else if (flag == "--objects") {
-      if (!ParseRange(value, &n, &m) || n < 1 || m > 8 || n > m)
-        return "--objects must be N or MIN-MAX within 1-8";
+      if (!ParseRange(value, &n, &m) || n < 1 || m > sim::kMaxObjectsPerScene || n > m)
+        return "--objects must be N or MIN-MAX within 1-" +
+               std::to_string(sim::kMaxObjectsPerScene);
       out->spec.min_objects = static_cast<int>(n);
       out->spec.max_objects = static_cast<int>(m);
     } else if (flag == "--support" && (value == "bin" || value == "table")) {

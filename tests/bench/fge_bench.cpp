@@ -107,8 +107,9 @@ void BM_FgeFast(benchmark::State& state) {
 void BM_FgeFilter2D(benchmark::State& state) {
   const Frame& f = FrameOf(state);
   const core::FgeParams params;
-  const auto slices =
-      core::fge_detail::SearchSlices(f.scene.height_m, core::Gripper{}, params).slices;
+  const auto slices = core::fge_detail::SearchSlices(f.scene.height_m, f.scene.contact_allowed,
+                                                     core::Gripper{}, params)
+                          .slices;
   cv::setNumThreads(1);
   for (auto _ : state) {
     for (int a = 0; a < params.num_angles; ++a) {

@@ -264,6 +264,63 @@ TEST(DetectGraspsFge, LowObjectIsGraspedWithFingertipsAtTheClearance) {
   EXPECT_TRUE(at_clearance);
 }
 
+// GQ-CNN's segmask: only the masked object may be grasped; the others stay obstacles.
+TEST(DetectGraspsFge, RegionOfInterestLimitsContactsToTheMask) {
+  SceneSpec spec;  // two slim boxes; box 1 is taller, so it would win without a mask
+  spec.boxes = {Box{-0.06, 0.0, 0.030, 0.080, 0.060, 0.0, 1},
+                Box{0.06, 0.0, 0.030, 0.080, 0.040, 0.0, 2}};
+  const Detection plain = Detect(spec);
+  ASSERT_FALSE(plain.grasps.empty());
+  ASSERT_EQ(IdAtCenter(plain, plain.grasps.front()), 1);
+
+  for (int target : {1, 2}) {
+    SCOPED_TRACE(target);
+    Detection d = Detect(spec);
+    const cv::Mat1b mask = d.synth.object_id == target;
+    RestrictContact(d.scene, mask, 0.0);
+    FgeParams params;
+    params.top_k = 10;
+    d.grasps = DetectGraspsFge(d.scene, d.synth.camera, Gripper{}, params);
+    ASSERT_FALSE(d.grasps.empty());
+    for (const Grasp& g : d.grasps) {
+      EXPECT_EQ(IdAtCenter(d, g), target) << "grasp at " << g.center_u_px << "," << g.center_v_px;
+      EXPECT_EQ(TouchedIds(d, g), std::set<int>{target});
+    }
+  }
+  Detection empty = Detect(spec);
+  RestrictContact(empty.scene, cv::Mat1b(empty.scene.height_m.size(), uchar{0}), 0.0);
+  EXPECT_TRUE(DetectGraspsFge(empty.scene, empty.synth.camera, Gripper{}).empty());
+}
+
+// A wrist camera sees the gripper's own fingers near the lens: with a minimum working distance
+// they are never grasped, and grasps elsewhere keep their fingers off them.
+TEST(DetectGraspsFge, SurfacesNearerThanTheMinimumDepthAreObstaclesOnly) {
+  // Camera 0.6 m above the table; the "finger" is 0.2 m tall (its top 0.4 m from the lens, on
+  // the optical axis so that only its top is seen) and stands 20 mm from the box's -x side, so
+  // grasps across x pass close to it.
+  SceneSpec spec;
+  spec.boxes = {Box{0.0, 0.0, 0.030, 0.040, 0.200, 0.0, 1},
+                Box{0.05, 0.0, 0.030, 0.080, 0.040, 0.0, 2}};
+  const Detection plain = Detect(spec);
+  ASSERT_FALSE(plain.grasps.empty());
+  EXPECT_EQ(IdAtCenter(plain, plain.grasps.front()), 1) << "the tall part wins without a limit";
+
+  Detection d = Detect(spec);
+  RestrictContact(d.scene, {}, 0.45);
+  FgeParams params;
+  params.top_k = 10;
+  d.grasps = DetectGraspsFge(d.scene, d.synth.camera, Gripper{}, params);
+  ASSERT_FALSE(d.grasps.empty());
+  for (const Grasp& g : d.grasps) {
+    EXPECT_EQ(IdAtCenter(d, g), 2) << "grasp at " << g.center_u_px << "," << g.center_v_px;
+    EXPECT_FALSE(FingersTouchId(d, g, 1));
+    EXPECT_LE(MaxHeightUnderFingers(d, g), g.grasp_height_m);
+  }
+  EXPECT_THROW(RestrictContact(d.scene, cv::Mat1b(10, 10, uchar{255}), 0.0),
+               std::invalid_argument);
+  EXPECT_THROW(RestrictContact(d.scene, {}, -1.0), std::invalid_argument);
+}
+
 TEST(DetectGraspsFge, FlatTableHasNoGrasp) {
   EXPECT_TRUE(Detect(SceneSpec{}).grasps.empty());
 }

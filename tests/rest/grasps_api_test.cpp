@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "service/io/depth_codec.h"
 #include "tests/rest/server_fixture.h"
@@ -178,6 +179,78 @@ TEST_F(GraspsApiTest, BadParametersNameTheirField) {
   ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"strategy", "stiffness", ""}})), 400, "strategy");
   ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", "{\"_fx\": 1}", "p.intr"}})), 400);
   ExpectError(server_->Send(RawRequest("POST", "/v1/grasps", "text/plain", "hello")), 415, "Content-Type");
+}
+
+// GQ-CNN's segmask on the real clutter frame: the heap's mask without a disc around the best
+// unmasked grasp. No grasp may close there any more, and every grasp closes on the mask: its
+// centre lies within half an opening of a mask pixel (a grasp around a ring may centre in its hole).
+TEST_F(GraspsApiTest, SegmaskRestrictsGraspsToTheMaskedRegion) {
+  const std::string npy = ReadFileBytes(SharedData("gqcnn/phoxi/clutter_depth_0.npy"));
+  const std::string intr = ReadFileBytes(SharedData("gqcnn/phoxi/phoxi.intr"));
+  const auto unmasked = server_->Send(MultipartRequest(
+      "/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", intr, "p.intr"}}));
+  ASSERT_EQ(unmasked.status, 200) << unmasked.body;
+  const json best = json::parse(unmasked.body)["grasps"].at(0);
+  const cv::Point2d taken(best["center_px"]["u"].get<double>(), best["center_px"]["v"].get<double>());
+
+  cv::Mat1b mask = cv::imread(SharedData("gqcnn/phoxi/clutter_segmask_0.png"), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(mask.empty());
+  constexpr int kHoleRadiusPx = 60;
+  cv::circle(mask, cv::Point(static_cast<int>(taken.x), static_cast<int>(taken.y)), kHoleRadiusPx,
+             cv::Scalar(0), cv::FILLED);
+  cv::Mat1f distance_to_mask;
+  cv::distanceTransform(mask == 0, distance_to_mask, cv::DIST_L2, 5);
+
+  const auto reply = server_->Send(MultipartRequest(
+      "/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", intr, "p.intr"},
+                     {"segmask", io::EncodePng(mask), "mask.png"}, {"top_k", "10", ""}}));
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  const json body = json::parse(reply.body);
+  EXPECT_EQ(body["contact_region"]["segmask"], true);
+  ASSERT_FALSE(body["grasps"].empty());
+  for (const json& g : body["grasps"]) {
+    const cv::Point2d c(g["center_px"]["u"].get<double>(), g["center_px"]["v"].get<double>());
+    const double half_opening_px = g["opening_px"].get<double>() / 2;
+    EXPECT_GT(cv::norm(c - taken), kHoleRadiusPx - half_opening_px)
+        << "grasp at (" << c.x << ", " << c.y << ") closes inside the removed disc";
+    EXPECT_LE(distance_to_mask(static_cast<int>(std::lround(c.y)), static_cast<int>(std::lround(c.x))),
+              half_opening_px)
+        << "grasp at (" << c.x << ", " << c.y << ") is off the mask";
+  }
+}
+
+TEST_F(GraspsApiTest, MinDepthKeepsGraspsOffNearSurfaces) {
+  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  const auto all = server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}}));
+  ASSERT_EQ(all.status, 200);
+  const json best = json::parse(all.body)["grasps"][0];
+  // Just beyond the best grasp's surface: that surface (and everything nearer) is off limits.
+  const double z = best["pose"]["position_m"][2].get<double>();
+  const auto limited = server_->Send(MultipartRequest(
+      "/v1/grasps", {{"depth", npy, "d.npy"}, {"min_depth_m", std::to_string(z + 0.05), ""}}));
+  ASSERT_EQ(limited.status, 200) << limited.body;
+  const json body = json::parse(limited.body);
+  EXPECT_DOUBLE_EQ(body["contact_region"]["min_depth_m"].get<double>(), std::stod(std::to_string(z + 0.05)));
+  for (const json& g : body["grasps"]) {
+    EXPECT_GE(g["pose"]["position_m"][2].get<double>() + 0.02, z + 0.05)
+        << "a grasp closes on a surface nearer than min_depth_m";
+  }
+  // Beyond the floor nothing is allowed: no grasps, not an error.
+  const auto none = server_->Send(
+      MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"min_depth_m", "5", ""}}));
+  ASSERT_EQ(none.status, 200) << none.body;
+  EXPECT_TRUE(json::parse(none.body)["grasps"].empty());
+}
+
+TEST_F(GraspsApiTest, BadSegmasksAndMinDepthsNameTheirField) {
+  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  const cv::Mat1b small(48, 64, uint8_t{255});
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", io::EncodePng(small), "m.png"}})), 422, "segmask");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", "GIF89a", "m.gif"}})), 415, "segmask");
+  const std::string mask = io::EncodePng(cv::Mat1b(480, 640, uint8_t{255}));
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", mask.substr(0, mask.size() / 2), "m.png"}})), 400, "segmask");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"min_depth_m", "-0.1", ""}})), 400, "min_depth_m");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"min_depth_m", "near", ""}})), 400, "min_depth_m");
 }
 
 TEST_F(GraspsApiTest, IntrinsicsOfAnotherImageSizeAreRefused) {

@@ -164,6 +164,9 @@ TEST_F(StiffnessApiTest, BadRequestsNameTheirField) {
               400, "format");
   ExpectError(with_model_->Send(MultipartRequest("/v1/stiffness", Upload({{"top_k", "3", ""}}))),
               400, "top_k");
+  ExpectError(with_model_->Send(MultipartRequest(
+                  "/v1/stiffness", Upload({{"segmask", io::EncodePng(cv::Mat1b(48, 64, uchar{255})), "m.png"}}))),
+              400, "segmask");
   ExpectError(with_model_->Send(MultipartRequest("/v1/stiffness", {{"format", "npy", ""}})), 400,
               "depth");
   ExpectError(with_model_->Send(RawRequest("POST", "/v1/stiffness", "text/plain", "x")), 415,
@@ -200,12 +203,22 @@ TEST_F(StiffnessApiTest, StiffnessIsTheDefaultStrategyAndMatchesThePlanner) {
   EXPECT_GT(body["grasps"][0]["mean_stiffness"].get<double>(), 0.8);
 }
 
-TEST_F(StiffnessApiTest, ClassicStrategyStillReportsMeanStiffness) {
-  const auto reply =
+TEST_F(StiffnessApiTest, ClassicStrategyRunsTheModelOnlyWhenMeanStiffnessIsAskedFor) {
+  const auto plain =
       with_model_->Send(MultipartRequest("/v1/grasps", Upload({{"strategy", "fge", ""}})));
+  ASSERT_EQ(plain.status, 200) << plain.body;
+  const json plain_body = json::parse(plain.body);
+  EXPECT_FALSE(plain_body["timing_ms"].contains("stiffness")) << "the model ran for nothing";
+  ASSERT_FALSE(plain_body["grasps"].empty());
+  for (const json& g : plain_body["grasps"]) EXPECT_TRUE(g["mean_stiffness"].is_null());
+
+  const auto reply = with_model_->Send(MultipartRequest(
+      "/v1/grasps", Upload({{"strategy", "fge", ""}, {"mean_stiffness", "true", ""}})));
   ASSERT_EQ(reply.status, 200) << reply.body;
   const json body = json::parse(reply.body);
   EXPECT_EQ(body["strategy"], "fge");
+  EXPECT_TRUE(body["timing_ms"]["stiffness"].is_number());
+  ASSERT_EQ(body["grasps"].size(), plain_body["grasps"].size());
   const auto expected = core::DetectGraspsFge(Direct().scene, Direct().camera, core::Gripper{});
   ASSERT_EQ(body["grasps"].size(), expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
@@ -232,6 +245,12 @@ TEST_F(StiffnessApiTest, WithoutAModelGraspsUseFgeAndReportNoStiffness) {
               400, "overlay");
   ExpectError(with_model_->Send(MultipartRequest("/v1/grasps", Upload({{"strategy", "best", ""}}))),
               400, "strategy");
+  ExpectError(without_model_->Send(
+                  MultipartRequest("/v1/grasps", Upload({{"mean_stiffness", "true", ""}}))),
+              400, "mean_stiffness");
+  ExpectError(with_model_->Send(
+                  MultipartRequest("/v1/grasps", Upload({{"mean_stiffness", "yes", ""}}))),
+              400, "mean_stiffness");
 }
 
 TEST_F(StiffnessApiTest, OverlayCanShowTheStiffnessMapUnderTheGrasps) {
