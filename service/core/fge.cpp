@@ -30,10 +30,13 @@ struct Candidate {
   float score = 0;
   int angle_index = 0;
   int slice_pos = 0;  // position in the slice list; slices are ordered highest first
+  int batch = 0;      // slice batch (SliceBatches): grasps of a higher batch always rank first
 };
 
-// Best first: higher score, then higher slice, then a fixed order (angle, row, column).
+// Best first: higher batch, higher score, then higher slice, then a fixed order (angle, row,
+// column).
 bool Better(const Candidate& a, const Candidate& b) {
+  if (a.batch != b.batch) return a.batch < b.batch;
   if (a.score != b.score) return a.score > b.score;
   if (a.slice_pos != b.slice_pos) return a.slice_pos < b.slice_pos;
   if (a.angle_index != b.angle_index) return a.angle_index < b.angle_index;
@@ -137,30 +140,41 @@ std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, con
   const auto search =
       fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, params);
   const std::vector<Slice>& slices = search.slices;
-  if (slices.empty()) return {};
-  fge_detail::FastFge fast(scene, camera, gripper, params, slices, search.graspable);
-
-  std::vector<ContactGeometry> geometry;
-  for (const Slice& s : slices) {
-    const double px_per_m = fge_detail::PxPerMetre(scene.floor, camera, s.contact_height_m);
-    geometry.push_back({px_per_m, fge_detail::GripperAtScale(gripper, px_per_m), s.tip_height_m});
-  }
   std::vector<Candidate> all;
-  for (int ai : AngleOrder(params.num_angles)) {
-    const double angle = AngleOf(ai, params.num_angles);
-    const auto maxima = fast.LocalMaxima(angle);
-    for (std::size_t si = 0; si < slices.size(); ++si) {
-      std::vector<Candidate> peaks;
-      for (const LocalMaximum& m : maxima[si]) {
-        peaks.push_back({m.u_px, m.v_px, m.score, ai, static_cast<int>(si)});
-      }
-      for (const Candidate& c : SelectInMap(std::move(peaks), scene, geometry[si], angle, params)) {
-        all.push_back(c);
+  std::vector<Candidate> ranked;
+  // num_height_steps slices at a time, from the top down, until top_k grasps are found; the
+  // grasps of a higher batch rank before those of a lower one.
+  const auto batches = fge_detail::SliceBatches(slices.size(), params);
+  for (std::size_t b = 0; b < batches.size(); ++b) {
+    const auto [first, last] = batches[b];
+    const std::vector<Slice> batch(slices.begin() + static_cast<std::ptrdiff_t>(first),
+                                   slices.begin() + static_cast<std::ptrdiff_t>(last));
+    fge_detail::FastFge fast(scene, camera, gripper, params, batch, search.graspable);
+    std::vector<ContactGeometry> geometry;
+    for (const Slice& s : batch) {
+      const double px_per_m = fge_detail::PxPerMetre(scene.floor, camera, s.contact_height_m);
+      geometry.push_back({px_per_m, fge_detail::GripperAtScale(gripper, px_per_m), s.tip_height_m});
+    }
+    for (int ai : AngleOrder(params.num_angles)) {
+      const double angle = AngleOf(ai, params.num_angles);
+      const auto maxima = fast.LocalMaxima(angle);
+      for (std::size_t si = 0; si < batch.size(); ++si) {
+        std::vector<Candidate> peaks;
+        for (const LocalMaximum& m : maxima[si]) {
+          peaks.push_back(
+              {m.u_px, m.v_px, m.score, ai, static_cast<int>(first + si), static_cast<int>(b)});
+        }
+        for (const Candidate& c :
+             SelectInMap(std::move(peaks), scene, geometry[si], angle, params)) {
+          all.push_back(c);
+        }
       }
     }
+    ranked = RankGlobally(all, params);
+    if (static_cast<int>(ranked.size()) >= params.top_k) break;
   }
   std::vector<Grasp> grasps;
-  for (const Candidate& c : RankGlobally(std::move(all), params)) {
+  for (const Candidate& c : ranked) {
     grasps.push_back(MakeGrasp(c, slices[static_cast<std::size_t>(c.slice_pos)], scene, camera,
                                gripper, params));
   }

@@ -103,15 +103,64 @@ cv::Mat1b FreeObjectPixels(const cv::Mat1f& height_m, double level_m) {
   return free_pixels;
 }
 
+// Pixels that are part of a free region at some level from lowest_m up to top_m (in steps): an
+// object leaning on a bin wall, or a pile that reaches the walls, is joined to them low down but
+// stands free higher up, and its surface there may be grasped. Levels stop at the objects' top so
+// that robot parts reaching in from the border, which only separate from it near their own (higher)
+// tops, stay obstacles. A region free at one level stays free at every higher level (its part above
+// that level touches the border even less), so each block records the lowest level at which it is
+// free, and a pixel is free where it rises above that.
+cv::Mat1b FreeAtSomeLevel(const cv::Mat1f& height_m, double lowest_m, double top_m, double step_m) {
+  const int step = std::max(1, std::min(height_m.rows, height_m.cols) / kRegionSampleRows);
+  const cv::Size grid((height_m.cols + step - 1) / step, (height_m.rows + step - 1) / step);
+  cv::Mat1f block_max(grid, -std::numeric_limits<float>::infinity());
+  for (int v = 0; v < height_m.rows; ++v) {
+    const float* h = height_m.ptr<float>(v);
+    float* b = block_max.ptr<float>(v / step);
+    for (int u = 0; u < height_m.cols; ++u) b[u / step] = std::max(b[u / step], h[u]);
+  }
+  cv::Mat1f free_from(grid, std::numeric_limits<float>::infinity());
+  cv::Mat1i labels, stats;
+  cv::Mat1d centroids;
+  for (double level = lowest_m; level < top_m; level += step_m) {
+    const cv::Mat1b above = block_max > static_cast<float>(level);
+    const int n = cv::connectedComponentsWithStats(above, labels, stats, centroids, 8, CV_32S);
+    std::vector<bool> free_label(static_cast<std::size_t>(n), false);
+    for (int i = 1; i < n; ++i) {
+      const int x = stats(i, cv::CC_STAT_LEFT), y = stats(i, cv::CC_STAT_TOP);
+      free_label[static_cast<std::size_t>(i)] = x > 0 && y > 0 &&
+                                                x + stats(i, cv::CC_STAT_WIDTH) < grid.width &&
+                                                y + stats(i, cv::CC_STAT_HEIGHT) < grid.height;
+    }
+    for (int y = 0; y < grid.height; ++y) {
+      const int* label = labels.ptr<int>(y);
+      float* from = free_from.ptr<float>(y);
+      for (int x = 0; x < grid.width; ++x) {
+        if (free_label[static_cast<std::size_t>(label[x])] && !std::isfinite(from[x])) {
+          from[x] = static_cast<float>(level);
+        }
+      }
+    }
+  }
+  cv::Mat1b free_pixels(height_m.size());
+  for (int v = 0; v < height_m.rows; ++v) {
+    const float* h = height_m.ptr<float>(v);
+    const float* from = free_from.ptr<float>(v / step);
+    std::uint8_t* out = free_pixels.ptr<std::uint8_t>(v);
+    for (int u = 0; u < height_m.cols; ++u) out[u] = h[u] > from[u / step] ? 255 : 0;
+  }
+  return free_pixels;
+}
+
 struct FreeObjects {
-  double top_m = 0;  // n-th highest free-object pixel
-  cv::Mat1b pixels;  // the free objects
+  double top_m = 0;  // n-th highest free-object pixel at the lowest level with free objects
+  cv::Mat1b pixels;  // every pixel free at some level (FreeAtSomeLevel)
 };
 
-// Free objects at the lowest level (from lowest_m up in steps) where they cover n pixels.
-// Objects leaning on a bin wall separate from it higher up; robot parts reaching into the image
-// only separate near their tops, so objects on the floor win.
-// Only pixels in `allowed` (if not empty) count.
+// The top comes from the free objects at the lowest level (from lowest_m up in steps) where they
+// cover n pixels: robot parts reaching into the image only separate near their tops, so objects
+// on the floor set it. Graspable are the pixels free at any level. Only pixels in `allowed` (if
+// not empty) count.
 std::optional<FreeObjects> FindFreeObjects(const cv::Mat1f& height_m, const cv::Mat1b& allowed,
                                            double lowest_m, double step_m, int n) {
   double max_height = 0;
@@ -119,7 +168,11 @@ std::optional<FreeObjects> FindFreeObjects(const cv::Mat1f& height_m, const cv::
   for (double level = lowest_m; level < max_height; level += step_m) {
     cv::Mat1b pixels = FreeObjectPixels(height_m, level);
     if (!allowed.empty()) pixels &= allowed;
-    if (auto top = NthHighestHeight(height_m, pixels, n)) return FreeObjects{*top, pixels};
+    if (auto top = NthHighestHeight(height_m, pixels, n)) {
+      cv::Mat1b graspable = FreeAtSomeLevel(height_m, level, *top, step_m);
+      if (!allowed.empty()) graspable &= allowed;
+      return FreeObjects{*top, graspable};
+    }
   }
   return std::nullopt;
 }
@@ -207,7 +260,7 @@ SliceSearch SearchSlices(const cv::Mat1f& height_m, const cv::Mat1b& contact_all
   if (!top) return search;
   const double h0 = *top - kTopSliceMarginM;
   std::vector<Slice>& slices = search.slices;
-  for (int k = 0; k < params.num_height_steps; ++k) {
+  for (int k = 0;; ++k) {
     Slice slice = SliceAt(h0 - k * params.height_step_m, gripper, params, k);
     if (slice.tip_height_m < params.floor_clearance_m) {
       // The step would put the fingertips under the clearance: one last slice with the tips
@@ -235,6 +288,16 @@ inline float SeamLevel(float before_p, float hp, float hq, float after_q, float 
 }
 
 }  // namespace
+
+std::vector<std::pair<std::size_t, std::size_t>> SliceBatches(std::size_t num_slices,
+                                                              const FgeParams& params) {
+  std::vector<std::pair<std::size_t, std::size_t>> batches;
+  const auto size = static_cast<std::size_t>(params.num_height_steps);
+  for (std::size_t first = 0; first < num_slices; first += size) {
+    batches.emplace_back(first, std::min(num_slices, first + size));
+  }
+  return batches;
+}
 
 cv::Mat1f SeamLevels(const cv::Mat1f& height_m, double seam_step_m) {
   const auto step = static_cast<float>(seam_step_m);

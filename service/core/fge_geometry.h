@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdlib>
 #include <opencv2/core.hpp>
+#include <utility>
 #include <vector>
 
 #include "service/core/fge.h"
@@ -80,7 +81,9 @@ int GaussianKernelSize(double sigma_px);
 
 /// The slices the multi-height search visits and the surfaces it may grasp.
 struct SliceSearch {
-  std::vector<Slice> slices;  ///< highest first; empty when nothing is tall enough
+  /// Highest first, down to the floor (the planners search them num_height_steps at a time,
+  /// SliceBatches); empty when nothing is tall enough.
+  std::vector<Slice> slices;
   /// 255 where a surface may be a contact surface (part of a free object); elsewhere surfaces
   /// are obstacles only (bin walls, robot parts, objects cut by the image border).
   cv::Mat1b graspable;
@@ -91,6 +94,8 @@ struct SliceSearch {
 /// free objects: connected regions above a level that do not touch the image border, at the
 /// lowest level (floor_clearance + grip_depth, + k height steps) where such objects exist. So
 /// bin walls, robot parts reaching into the image and objects cut by the frame do not set it.
+/// Graspable are the pixels of regions that stand free at some level (a pile joined to a bin
+/// wall low down is graspable where it rises free of it), never the wall itself.
 /// If there is no free object at any level, all pixels count and all are graspable. Slices step
 /// down by height_step_m; a step that would put the fingertips under floor_clearance_m is replaced
 /// by a last slice with the tips exactly at the clearance (low objects keep a grasp at their base).
@@ -98,6 +103,10 @@ struct SliceSearch {
 /// set the top slice.
 SliceSearch SearchSlices(const cv::Mat1f& height_m, const cv::Mat1b& contact_allowed,
                          const Gripper& gripper, const FgeParams& params);
+/// [first, last) ranges of num_height_steps slices each, in order: the planners search a batch
+/// and go on to the next, lower one only while they have fewer than top_k grasps.
+std::vector<std::pair<std::size_t, std::size_t>> SliceBatches(std::size_t num_slices,
+                                                              const FgeParams& params);
 Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& params,
               int index = 0);
 

@@ -29,9 +29,11 @@ struct Candidate {
   float graspability = 0;
   int angle_index = 0;
   int slice_pos = 0;
+  int batch = 0;  // slice batch (SliceBatches): grasps of a higher batch always rank first
 };
 
 bool Better(const Candidate& a, const Candidate& b) {
+  if (a.batch != b.batch) return a.batch < b.batch;
   if (a.key != b.key) return a.key > b.key;
   if (a.slice_pos != b.slice_pos) return a.slice_pos < b.slice_pos;
   if (a.angle_index != b.angle_index) return a.angle_index < b.angle_index;
@@ -82,16 +84,15 @@ struct SliceData {
 };
 
 /// Candidates of one (angle, slice) map with the ranking key; A_st / A_t from the box sums.
-void AddCandidates(const std::vector<fge_detail::FastFge::RegionCandidate>& found,
-                   int angle_index, int slice_pos, double centre_weight,
-                   std::vector<Candidate>& all) {
+void AddCandidates(const std::vector<fge_detail::FastFge::RegionCandidate>& found, int angle_index,
+                   int slice_pos, int batch, double centre_weight, std::vector<Candidate>& all) {
   for (const auto& rc : found) {
     // Eq. 3.6-3.7 as a mean (A_st / A_t): the thesis' clutter ranking, "same as the mean of
     // stiffness" (eq. 3.14), so region size does not bias it. sums = (A_st, A_t).
     if (!(rc.sums[1] > 0)) continue;  // no contact pixel at image resolution
     const double mean = rc.sums[0] / rc.sums[1];
-    all.push_back({rc.u_px, rc.v_px, mean + centre_weight * rc.graspability, mean,
-                   rc.graspability, angle_index, slice_pos});
+    all.push_back({rc.u_px, rc.v_px, mean + centre_weight * rc.graspability, mean, rc.graspability,
+                   angle_index, slice_pos, batch});
   }
 }
 
@@ -116,59 +117,13 @@ Grasp MakeGrasp(const Candidate& c, const SliceData& sd, const Scene& scene, con
   return grasp;
 }
 
-}  // namespace
-
-std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
-                                         const cv::Mat1f& stiffness_map, const Gripper& gripper,
-                                         const StiffnessFgeParams& params) {
-  const FgeParams& fp = params.fge;
-  fge_detail::CheckInputs(camera, gripper, fp);
-  if (!(params.centre_weight >= 0) || params.candidate_step_px < 1 ||
-      params.candidate_step_px > 16) {
-    throw std::invalid_argument(
-        "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16");
-  }
-  if (scene.height_m.empty()) return {};
-  if (stiffness_map.size() != scene.height_m.size()) {
-    throw std::invalid_argument(
-        "DetectGraspsStiffness: the stiffness map must have the scene's "
-        "size");
-  }
-  const auto search = fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, fp);
-  if (search.slices.empty()) return {};
-  fge_detail::FastFge fast(scene, camera, gripper, fp, search.slices, search.graspable);
-
-  std::vector<SliceData> slices;
-  for (const Slice& s : search.slices) {
-    SliceData sd;
-    sd.slice = s;
-    sd.px_per_m = fge_detail::PxPerMetre(scene.floor, camera, s.contact_height_m);
-    sd.gripper = fge_detail::GripperAtScale(gripper, sd.px_per_m);
-    sd.contact = (scene.height_m > static_cast<float>(s.contact_height_m)) & search.graspable;
-    slices.push_back(std::move(sd));
-  }
-  // NaN / out-of-range map values count as the softest score (never preferred).
-  cv::Mat1f stiffness = stiffness_map.clone();
-  cv::patchNaNs(stiffness, 0.0);
-  cv::min(cv::max(stiffness, 0.0f), 1.0f, stiffness);
-
-  // Per slice, S * I_t and I_t block-summed to the fast path's resolution: their box sums over a
-  // closing region are A_st and A_t (eq. 3.6-3.8) in image pixels.
-  std::vector<cv::Mat2f> pooled;
-  for (const SliceData& sd : slices) pooled.push_back(fast.PoolSums(stiffness, sd.contact));
-  const int grid_step = std::max(1, params.candidate_step_px / fast.scale());
-
-  std::vector<Candidate> all;
-  for (int ai = 0; ai < fp.num_angles; ++ai) {
-    const auto found = fast.Candidates(AngleOf(ai, fp.num_angles), pooled, grid_step);
-    for (std::size_t si = 0; si < slices.size(); ++si) {
-      AddCandidates(found[si], ai, static_cast<int>(si), params.centre_weight, all);
-    }
-  }
-  // Per map (angle, slice): best key first, NMS, contact check, at most top_k kept and
-  // kMaxContactChecksPerMap checks; then the maps' grasps ranked together with NMS across similar
-  // angles. Popping all maps' candidates in one key order gives exactly that while checking only
-  // the candidates that can still make the top_k.
+// Per map (angle, slice): best key first, NMS, contact check, at most top_k kept and
+// kMaxContactChecksPerMap checks; then the maps' grasps ranked together with NMS across similar
+// angles. Popping all maps' candidates in one key order gives exactly that while checking only
+// the candidates that can still make the top_k.
+std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<SliceData>& slices,
+                                const Scene& scene, const Camera& camera, const Gripper& gripper,
+                                const FgeParams& fp) {
   struct MapState {
     int checks = 0;
     std::vector<Candidate> kept;
@@ -204,6 +159,67 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
     if (suppressed) continue;
     kept.push_back(c);
     grasps.push_back(MakeGrasp(c, sd, scene, camera, gripper, fp));
+  }
+  return grasps;
+}
+
+}  // namespace
+
+std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
+                                         const cv::Mat1f& stiffness_map, const Gripper& gripper,
+                                         const StiffnessFgeParams& params) {
+  const FgeParams& fp = params.fge;
+  fge_detail::CheckInputs(camera, gripper, fp);
+  if (!(params.centre_weight >= 0) || params.candidate_step_px < 1 ||
+      params.candidate_step_px > 16) {
+    throw std::invalid_argument(
+        "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16");
+  }
+  if (scene.height_m.empty()) return {};
+  if (stiffness_map.size() != scene.height_m.size()) {
+    throw std::invalid_argument(
+        "DetectGraspsStiffness: the stiffness map must have the scene's "
+        "size");
+  }
+  const auto search = fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, fp);
+  // NaN / out-of-range map values count as the softest score (never preferred).
+  cv::Mat1f stiffness = stiffness_map.clone();
+  cv::patchNaNs(stiffness, 0.0);
+  cv::min(cv::max(stiffness, 0.0f), 1.0f, stiffness);
+
+  std::vector<SliceData> slices;
+  std::vector<Candidate> all;
+  std::vector<Grasp> grasps;
+  // num_height_steps slices at a time, from the top down, until top_k grasps are found; the
+  // grasps of a higher batch rank before those of a lower one.
+  const auto batches = fge_detail::SliceBatches(search.slices.size(), fp);
+  for (std::size_t b = 0; b < batches.size(); ++b) {
+    const auto [first, last] = batches[b];
+    const std::vector<Slice> batch(search.slices.begin() + static_cast<std::ptrdiff_t>(first),
+                                   search.slices.begin() + static_cast<std::ptrdiff_t>(last));
+    fge_detail::FastFge fast(scene, camera, gripper, fp, batch, search.graspable);
+    // Per slice, S * I_t and I_t block-summed to the fast path's resolution: their box sums over
+    // a closing region are A_st and A_t (eq. 3.6-3.8) in image pixels.
+    std::vector<cv::Mat2f> pooled;
+    for (const Slice& s : batch) {
+      SliceData sd;
+      sd.slice = s;
+      sd.px_per_m = fge_detail::PxPerMetre(scene.floor, camera, s.contact_height_m);
+      sd.gripper = fge_detail::GripperAtScale(gripper, sd.px_per_m);
+      sd.contact = (scene.height_m > static_cast<float>(s.contact_height_m)) & search.graspable;
+      pooled.push_back(fast.PoolSums(stiffness, sd.contact));
+      slices.push_back(std::move(sd));
+    }
+    const int grid_step = std::max(1, params.candidate_step_px / fast.scale());
+    for (int ai = 0; ai < fp.num_angles; ++ai) {
+      const auto found = fast.Candidates(AngleOf(ai, fp.num_angles), pooled, grid_step);
+      for (std::size_t si = 0; si < batch.size(); ++si) {
+        AddCandidates(found[si], ai, static_cast<int>(first + si), static_cast<int>(b),
+                      params.centre_weight, all);
+      }
+    }
+    grasps = SelectGrasps(all, slices, scene, camera, gripper, fp);
+    if (static_cast<int>(grasps.size()) >= fp.top_k) break;
   }
   return grasps;
 }

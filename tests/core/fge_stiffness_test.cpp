@@ -90,6 +90,24 @@ TEST(DetectGraspsStiffness, PicksTheHardOfTwoEqualBoxes) {
   EXPECT_TRUE(std::isnan(fge.front().mean_stiffness));
 }
 
+// Like classic FGE, the search goes on below a top object too wide to grasp.
+TEST(DetectGraspsStiffness, SearchGoesBelowAnUngraspableTopUntilItFindsGrasps) {
+  SceneSpec spec;
+  spec.boxes = {Box{-0.08, 0.0, 0.080, 0.080, 0.150, 0.0, 1},
+                Box{0.08, 0.0, 0.030, 0.080, 0.040, 0.0, 2}};
+  const Prepared s = Make(spec);
+  const cv::Mat1f map = MapById(s.synth, {0, 0.9f, 0.8f});
+  StiffnessFgeParams params;
+  params.fge.top_k = 3;
+  const auto grasps = DetectGraspsStiffness(s.scene, s.synth.camera, map, Gripper{}, params);
+  ASSERT_FALSE(grasps.empty());
+  for (const Grasp& g : grasps) {
+    EXPECT_EQ(IdAtCenter(s, g), 2);
+    EXPECT_GE(g.height_step, params.fge.num_height_steps);
+    EXPECT_NEAR(g.mean_stiffness, 0.8, 1e-5);
+  }
+}
+
 TEST(DetectGraspsStiffness, GraspsTheHardEndOfALongBox) {
   // A 30 x 120 mm box along y (image v): FGE prefers its middle; with the last 40 mm (y > 0.02)
   // hard (1.0) and the rest soft (0.3) the stiffness strategy grasps that end, like a bottle

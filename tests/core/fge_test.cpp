@@ -321,6 +321,72 @@ TEST(DetectGraspsFge, SurfacesNearerThanTheMinimumDepthAreObstaclesOnly) {
   EXPECT_THROW(RestrictContact(d.scene, {}, -1.0), std::invalid_argument);
 }
 
+// A dense bin: the highest object is too wide to grasp and everything else lies more than
+// num_height_steps slices below its top. The search goes on down until it finds grasps.
+TEST(DetectGraspsFge, SearchGoesBelowAnUngraspableTopUntilItFindsGrasps) {
+  SceneSpec spec;
+  spec.boxes = {Box{-0.08, 0.0, 0.080, 0.080, 0.150, 0.0, 1},  // 80 mm wide, 150 mm tall
+                Box{0.08, 0.0, 0.030, 0.080, 0.040, 0.0, 2}};  // slim, 110 mm lower
+  FgeParams params;
+  params.top_k = 3;
+  const Detection d = Detect(spec, params);
+  ASSERT_FALSE(d.grasps.empty());
+  for (const Grasp& g : d.grasps) {
+    EXPECT_EQ(IdAtCenter(d, g), 2) << "grasp at " << g.center_u_px << "," << g.center_v_px;
+    EXPECT_GE(g.height_step, params.num_height_steps) << "found below the first batch";
+    EXPECT_LE(MaxHeightUnderFingers(d, g), g.grasp_height_m);
+  }
+}
+
+// Grasps of a higher batch of slices rank first, so the first batch's answer is a prefix of
+// the answer: asking for more grasps never changes the best one.
+TEST(DetectGraspsFge, HigherSlicesRankFirstAndMoreGraspsKeepThePrefix) {
+  SceneSpec spec;
+  spec.boxes = {Box{-0.08, 0.0, 0.030, 0.080, 0.120, 0.0, 1},  // slim and tall: one grasp
+                Box{0.08, 0.0, 0.030, 0.080, 0.030, 0.0, 2}};  // slim and low
+  FgeParams one;
+  one.top_k = 1;
+  FgeParams many;
+  many.top_k = 6;
+  const Detection a = Detect(spec, one);
+  const Detection b = Detect(spec, many);
+  ASSERT_EQ(a.grasps.size(), 1u);
+  ASSERT_GE(b.grasps.size(), 2u);
+  EXPECT_EQ(a.grasps[0].center_u_px, b.grasps[0].center_u_px);
+  EXPECT_EQ(a.grasps[0].angle_rad, b.grasps[0].angle_rad);
+  EXPECT_EQ(IdAtCenter(b, b.grasps[0]), 1);
+  bool low_box = false;
+  for (std::size_t i = 1; i < b.grasps.size(); ++i) {
+    EXPECT_GE(b.grasps[i].height_step / many.num_height_steps,
+              b.grasps[i - 1].height_step / many.num_height_steps);
+    low_box |= IdAtCenter(b, b.grasps[i]) == 2;
+  }
+  EXPECT_TRUE(low_box) << "the low box is reached once the first batch runs out";
+}
+
+// A pile that reaches a bin wall running out of the image: box 3 touches the wall only through
+// the low box 2, and a free-standing box 4 elsewhere is free at the lowest level. Box 3 stands free
+// of the wall above box 2, so it may be grasped; the wall and box 2 may not.
+TEST(DetectGraspsFge, PileJoinedToAWallLowDownIsGraspableWhereItStandsFree) {
+  SceneSpec spec;
+  spec.boxes = {Box{-0.25, 0.0, 0.010, 0.80, 0.060, 0.0, 1},    // wall, out of the image
+                Box{-0.215, 0.0, 0.060, 0.060, 0.015, 0.0, 2},  // low box against the wall
+                Box{-0.17, 0.0, 0.030, 0.080, 0.050, 0.0, 3},   // leans on the low box
+                Box{0.10, 0.05, 0.030, 0.080, 0.060, 0.0, 4}};  // free-standing
+  FgeParams params;
+  params.top_k = 10;
+  const Detection d = Detect(spec, params);
+  bool third = false;
+  for (const Grasp& g : d.grasps) {
+    const int id = IdAtCenter(d, g);
+    EXPECT_TRUE(id == 3 || id == 4) << "grasp at " << g.center_u_px << "," << g.center_v_px;
+    EXPECT_EQ(TouchedIds(d, g).count(1), 0u);
+    EXPECT_LE(MaxHeightUnderFingers(d, g), g.grasp_height_m);
+    third |= id == 3;
+  }
+  EXPECT_TRUE(third);
+}
+
 TEST(DetectGraspsFge, FlatTableHasNoGrasp) {
   EXPECT_TRUE(Detect(SceneSpec{}).grasps.empty());
 }

@@ -143,7 +143,7 @@ TEST(GenerateScene, FractalObjectsCarryTheirConstantStiffness) {
 
 TEST(ValidateSceneSpec, NamesTheFieldAtFault) {
   SceneSpec spec;
-  spec.max_objects = 9;
+  spec.max_objects = kMaxObjectsPerScene + 1;
   ASSERT_TRUE(ValidateSceneSpec(spec));
   EXPECT_EQ(ValidateSceneSpec(spec)->field, "objects");
   spec = SceneSpec{};
