@@ -141,6 +141,36 @@ TEST(GenerateScene, FractalObjectsCarryTheirConstantStiffness) {
   EXPECT_GT(seen, 0);
 }
 
+// Dense bins: 15-30 objects heap up until the pile reaches the walls. With 24 objects in the
+// default 0.40 x 0.30 m bin, most stay in the bin, objects rest against each of the four walls,
+// and the heap rises above the 0.10 m walls. (Five objects reach two walls in this scene.)
+TEST(GenerateScene, DenseBinsHeapUpAgainstTheWalls) {
+  SceneSpec spec;
+  spec.min_objects = 24;
+  spec.max_objects = 24;
+  const auto generated = GenerateScene(spec, 11);
+  ASSERT_TRUE(generated.ok()) << generated.error().message;
+  const SimScene& scene = generated.value().scene;
+  EXPECT_GE(scene.objects.size(), 15u);
+  const double half_x = spec.support.inner_size_x_m / 2, half_y = spec.support.inner_size_y_m / 2;
+  constexpr double kTouchM = 0.01;     // a vertex this close to a wall's inner face rests on it
+  std::array<bool, 4> wall_touched{};  // -x, +x, -y, +y
+  double top_m = 0;
+  for (const PlacedObject& p : scene.objects) {
+    for (const auto& v : p.object->mesh_o.vertices) {
+      const Eigen::Vector3d w = p.world_from_object * Eigen::Vector3d(v[0], v[1], v[2]);
+      wall_touched[0] = wall_touched[0] || w.x() < -half_x + kTouchM;
+      wall_touched[1] = wall_touched[1] || w.x() > half_x - kTouchM;
+      wall_touched[2] = wall_touched[2] || w.y() < -half_y + kTouchM;
+      wall_touched[3] = wall_touched[3] || w.y() > half_y - kTouchM;
+      top_m = std::max(top_m, w.z());
+    }
+  }
+  for (int i = 0; i < 4; ++i)
+    EXPECT_TRUE(wall_touched[static_cast<std::size_t>(i)]) << "wall " << i;
+  EXPECT_GT(top_m, 0.12) << "no heap";
+}
+
 TEST(ValidateSceneSpec, NamesTheFieldAtFault) {
   SceneSpec spec;
   spec.max_objects = kMaxObjectsPerScene + 1;
