@@ -126,7 +126,8 @@ FgeMaps ComputeFgeMaps(const Scene& scene, const Camera& camera, const Gripper& 
                        const FgeParams& params, double angle_rad, double contact_height_m) {
   fge_detail::CheckInputs(camera, gripper, params);
   const auto search =
-      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, params);
+      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed,
+                               fge_detail::PxPerMetre(scene.floor, camera, 0), gripper, params);
   fge_detail::FastFge fast(scene, camera, gripper, params,
                            {fge_detail::SliceAt(contact_height_m, gripper, params)},
                            search.graspable);
@@ -138,7 +139,8 @@ std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, con
   fge_detail::CheckInputs(camera, gripper, params);
   if (scene.height_m.empty()) return {};
   const auto search =
-      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, params);
+      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed,
+                               fge_detail::PxPerMetre(scene.floor, camera, 0), gripper, params);
   const std::vector<Slice>& slices = search.slices;
   std::vector<Candidate> all;
   std::vector<Candidate> ranked;

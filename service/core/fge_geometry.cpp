@@ -152,6 +152,58 @@ cv::Mat1b FreeAtSomeLevel(const cv::Mat1f& height_m, double lowest_m, double top
   return free_pixels;
 }
 
+// Surfaces above `level_m` cut into pieces along steep slopes (object sides and wall faces seen
+// from above) and height jumps, on a blurred copy so that sensor noise does not cut faces apart.
+// Pieces that do not touch the image border and cover at least `min_area_px` are free, grown back
+// over the cut by its width so that an object keeps its rim. In a dense pile objects touch each
+// other, so the regions above a level reach the walls and the border everywhere; their top faces
+// still meet along steep sides. Bin walls, robot parts and objects cut by the frame have faces
+// that run to the border.
+cv::Mat1b FreeSmoothPieces(const cv::Mat1f& height_m, double level_m, double px_per_m,
+                           int min_area_px) {
+  constexpr double kMaxSlope = 1.5;  // rise over run: faces steeper than ~56 degrees are sides
+  constexpr int kBlurPx = 5;
+  cv::Mat1f smooth_h;
+  cv::blur(height_m, smooth_h, cv::Size(kBlurPx, kBlurPx));
+  cv::Mat1f du, dv;
+  cv::Sobel(smooth_h, du, CV_32F, 1, 0, 3, 1.0 / 8);  // metres per pixel
+  cv::Sobel(smooth_h, dv, CV_32F, 0, 1, 3, 1.0 / 8);
+  const auto max_step = static_cast<float>(kMaxSlope / px_per_m);  // metres per pixel
+  const auto level = static_cast<float>(level_m);
+  cv::Mat1b flat(height_m.size());
+  for (int v = 0; v < height_m.rows; ++v) {
+    const float* h = height_m.ptr<float>(v);
+    const float* gu = du.ptr<float>(v);
+    const float* gv = dv.ptr<float>(v);
+    std::uint8_t* out = flat.ptr<std::uint8_t>(v);
+    for (int u = 0; u < height_m.cols; ++u) {
+      out[u] = h[u] > level && gu[u] * gu[u] + gv[u] * gv[u] < max_step * max_step ? 255 : 0;
+    }
+  }
+  cv::Mat1i labels, stats;
+  cv::Mat1d centroids;
+  const int n = cv::connectedComponentsWithStats(flat, labels, stats, centroids, 4, CV_32S);
+  const int rows = height_m.rows, cols = height_m.cols;
+  std::vector<std::uint8_t> free_label(static_cast<std::size_t>(n), 0);
+  for (int i = 1; i < n; ++i) {
+    const int x = stats(i, cv::CC_STAT_LEFT), y = stats(i, cv::CC_STAT_TOP);
+    const bool touches = x == 0 || y == 0 || x + stats(i, cv::CC_STAT_WIDTH) == cols ||
+                         y + stats(i, cv::CC_STAT_HEIGHT) == rows;
+    free_label[static_cast<std::size_t>(i)] =
+        !touches && stats(i, cv::CC_STAT_AREA) >= min_area_px ? 255 : 0;
+  }
+  cv::Mat1b free_pixels(height_m.size());
+  for (int v = 0; v < rows; ++v) {
+    const int* label = labels.ptr<int>(v);
+    std::uint8_t* out = free_pixels.ptr<std::uint8_t>(v);
+    for (int u = 0; u < cols; ++u) out[u] = free_label[static_cast<std::size_t>(label[u])];
+  }
+  cv::dilate(free_pixels, free_pixels,
+             cv::getStructuringElement(cv::MORPH_RECT, cv::Size(kBlurPx, kBlurPx)));
+  free_pixels &= height_m > level;
+  return free_pixels;
+}
+
 struct FreeObjects {
   double top_m = 0;  // n-th highest free-object pixel at the lowest level with free objects
   cv::Mat1b pixels;  // every pixel free at some level (FreeAtSomeLevel)
@@ -243,15 +295,21 @@ Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& 
 }
 
 SliceSearch SearchSlices(const cv::Mat1f& height_m, const cv::Mat1b& contact_allowed,
-                         const Gripper& gripper, const FgeParams& params) {
+                         double floor_px_per_m, const Gripper& gripper, const FgeParams& params) {
   const int n = std::max(1, static_cast<int>(std::ceil(params.min_object_area_px)));
   // Nothing lower than this can start a slice whose fingertips clear the floor.
   const double lowest_m = params.floor_clearance_m + params.grip_depth_m;
   SliceSearch search;
   std::optional<double> top;
-  if (auto free = FindFreeObjects(height_m, contact_allowed, lowest_m, params.height_step_m, n)) {
-    top = free->top_m;
-    search.graspable = free->pixels;
+  cv::Mat1b pieces = FreeSmoothPieces(height_m, lowest_m, floor_px_per_m, n);
+  if (!contact_allowed.empty()) pieces &= contact_allowed;
+  const auto free = FindFreeObjects(height_m, contact_allowed, lowest_m, params.height_step_m, n);
+  if (free) {
+    search.graspable = free->pixels | pieces;
+    top = std::max(free->top_m, NthHighestHeight(height_m, pieces, n).value_or(0.0));
+  } else if (cv::countNonZero(pieces) >= n) {
+    search.graspable = pieces;
+    top = NthHighestHeight(height_m, pieces, n);
   } else {  // every object touches the border at every level: let them all count
     search.graspable =
         contact_allowed.empty() ? cv::Mat1b(height_m.size(), 255) : contact_allowed.clone();

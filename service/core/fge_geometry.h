@@ -101,8 +101,9 @@ struct SliceSearch {
 /// by a last slice with the tips exactly at the clearance (low objects keep a grasp at their base).
 /// Only surfaces in `contact_allowed` (Scene::contact_allowed; empty = all) may be graspable or
 /// set the top slice.
+/// `floor_px_per_m`: PxPerMetre(floor, camera, 0), the image scale on the floor.
 SliceSearch SearchSlices(const cv::Mat1f& height_m, const cv::Mat1b& contact_allowed,
-                         const Gripper& gripper, const FgeParams& params);
+                         double floor_px_per_m, const Gripper& gripper, const FgeParams& params);
 /// [first, last) ranges of num_height_steps slices each, in order: the planners search a batch
 /// and go on to the next, lower one only while they have fewer than top_k grasps.
 std::vector<std::pair<std::size_t, std::size_t>> SliceBatches(std::size_t num_slices,

@@ -84,7 +84,9 @@ FgeMaps ComputeFgeMapsReference(const Scene& scene, const Camera& camera, const 
 
   // Only free objects are contact surfaces (bin walls, robot parts: obstacles only).
   const cv::Mat1b graspable =
-      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, params).graspable;
+      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed,
+                               fge_detail::PxPerMetre(scene.floor, camera, 0), gripper, params)
+          .graspable;
   cv::Mat1f contact_surface = Above(height, slice.contact_height_m);
   contact_surface.setTo(0.0f, graspable == 0);
   FgeMaps maps;

@@ -181,7 +181,9 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
         "DetectGraspsStiffness: the stiffness map must have the scene's "
         "size");
   }
-  const auto search = fge_detail::SearchSlices(scene.height_m, scene.contact_allowed, gripper, fp);
+  const auto search =
+      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed,
+                               fge_detail::PxPerMetre(scene.floor, camera, 0), gripper, fp);
   // NaN / out-of-range map values count as the softest score (never preferred).
   cv::Mat1f stiffness = stiffness_map.clone();
   cv::patchNaNs(stiffness, 0.0);

@@ -108,9 +108,11 @@ void BM_FgeFilter2D(benchmark::State& state) {
   const Frame& f = FrameOf(state);
   const core::FgeParams params;
   // The first batch of slices: the one the fast search covers when it finds top_k grasps there.
-  auto slices = core::fge_detail::SearchSlices(f.scene.height_m, f.scene.contact_allowed,
-                                               core::Gripper{}, params)
-                    .slices;
+  auto slices =
+      core::fge_detail::SearchSlices(f.scene.height_m, f.scene.contact_allowed,
+                                     core::fge_detail::PxPerMetre(f.scene.floor, f.camera, 0),
+                                     core::Gripper{}, params)
+          .slices;
   slices.resize(std::min(slices.size(), static_cast<std::size_t>(params.num_height_steps)));
   cv::setNumThreads(1);
   for (auto _ : state) {

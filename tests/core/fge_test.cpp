@@ -387,6 +387,29 @@ TEST(DetectGraspsFge, PileJoinedToAWallLowDownIsGraspableWhereItStandsFree) {
   EXPECT_TRUE(third);
 }
 
+// A box pushed against a bin wall that runs out of the image is joined to the border at every
+// level below its top, so no level leaves it free; its top face still meets the taller wall along
+// the wall's steep side, and that face may be grasped (along the wall, fingers clear of it).
+TEST(DetectGraspsFge, BoxAgainstAWallIsGraspedByItsOwnTopFace) {
+  SceneSpec spec;
+  spec.boxes = {Box{-0.25, 0.0, 0.006, 0.80, 0.080, 0.0, 1},    // wall, out of the image
+                Box{-0.227, 0.0, 0.040, 0.030, 0.030, 0.0, 2},  // against the wall
+                Box{0.10, 0.05, 0.030, 0.080, 0.050, 0.0, 3}};  // free-standing
+  FgeParams params;
+  params.top_k = 10;
+  const Detection d = Detect(spec, params);
+  bool against = false;
+  for (const Grasp& g : d.grasps) {
+    const int id = IdAtCenter(d, g);
+    EXPECT_TRUE(id == 2 || id == 3) << "grasp at " << g.center_u_px << "," << g.center_v_px;
+    EXPECT_EQ(TouchedIds(d, g).count(1), 0u);
+    EXPECT_FALSE(FingersTouchId(d, g, 1));
+    EXPECT_LE(MaxHeightUnderFingers(d, g), g.grasp_height_m);
+    against |= id == 2;
+  }
+  EXPECT_TRUE(against);
+}
+
 TEST(DetectGraspsFge, FlatTableHasNoGrasp) {
   EXPECT_TRUE(Detect(SceneSpec{}).grasps.empty());
 }
