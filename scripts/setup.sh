@@ -13,6 +13,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev chromium
   # the two-host test (tests/netns): network namespaces and veth pairs, HTTP and JSON in bash
   iproute2 jq
+  # the HTTP benchmark (scripts/bench-http.sh): nginx as the baseline, wrk as the load
+  nginx-light wrk
 )
 # node and npm bundle the web page (scripts/build.sh). Any node >= 18 will do: Debian's nodejs and
 # npm are added only when no node is on the PATH, so a newer one already installed is kept.
@@ -38,5 +40,15 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 echo "setup: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
+# Packages with a daemon (nginx) must not start it: a policy that refuses service starts, kept
+# only for this install when the machine has none of its own.
+policy=/usr/sbin/policy-rc.d
+own_policy=0
+if [ ! -e "$policy" ]; then
+  printf '#!/bin/sh\nexit 101\n' >"$policy"
+  chmod +x "$policy"
+  own_policy=1
+fi
+trap '[ "$own_policy" = 1 ] && rm -f "$policy"' EXIT
 apt-get update -qq
 apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -118,6 +118,15 @@ int main(int argc, char** argv) {
     return 1;
   }
 
+  // One descriptor per connection, plus the journal, DDS sockets, model and page files.
+  constexpr std::size_t kSpareDescriptors = 256;
+  const std::size_t wanted_fds = config.server.max_connections + kSpareDescriptors;
+  if (const std::size_t fds = http::RaiseOpenFileLimit(wanted_fds); fds < wanted_fds) {
+    std::cerr << "softgrasp-server: the open-file limit is " << fds << " (hard limit), below the "
+              << wanted_fds << " that server.max_connections = " << config.server.max_connections
+              << " needs; connections over it wait until others close\n";
+  }
+
   // Before any thread starts (DDS and the tracker start threads), so they all inherit the mask.
   const sigset_t signals = BlockShutdownSignals();
   auto robot = StartRobot(config.robot);
@@ -128,6 +137,9 @@ int main(int argc, char** argv) {
   }
   try {
     http::Router router = rest::BuildRouter(config, robot.value(), stiffness_model.value());
+    config.server.answer_inline = [&router](const http::Request& request) {
+      return router.AnswersInline(request);
+    };
     http::Server server(config.server,
                         [&router](http::Request& request) { return router.Dispatch(request); });
     server.Start();

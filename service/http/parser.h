@@ -40,6 +40,12 @@ class RequestParser {
   const std::string& error_message() const { return error_message_; }
   /// True once any byte of a request has arrived (used to tell idle keep-alive from a slow client).
   bool in_progress() const;
+  /// True while the body (or its chunks and trailers) of a request whose header block is complete
+  /// is still arriving: the header deadline is over, the body deadline applies.
+  bool reading_body() const {
+    return state_ == State::kNeedMore && phase_ != Phase::kRequestLine &&
+           phase_ != Phase::kHeaders;
+  }
   /// Whether the connection may stay open after answering the last taken request.
   bool keep_alive() const { return keep_alive_; }
   /// The request asked for "Expect: 100-continue" and the body has not been read yet.

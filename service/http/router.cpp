@@ -31,6 +31,10 @@ std::optional<std::vector<std::string>> RequestSegments(const Request& request) 
   if (!request.target.empty() && request.target.front() == '/') {
     const std::string_view raw = std::string_view(request.target).substr(0, request.target.find('?'));
     for (const std::string_view segment : SplitPath(raw)) {
+      if (segment.find('%') == std::string_view::npos) {
+        out.emplace_back(segment);  // nothing to decode
+        continue;
+      }
       auto decoded = PercentDecode(segment, false);
       if (!decoded) return std::nullopt;
       out.push_back(std::move(*decoded));
@@ -69,7 +73,7 @@ std::string Join(const std::vector<std::string>& items, std::string_view separat
 
 }  // namespace
 
-void Router::Add(std::string method, std::string pattern, Handler handler) {
+void Router::Add(std::string method, std::string pattern, Handler handler, Execution execution) {
   if (pattern.empty() || pattern.front() != '/') {
     throw std::invalid_argument("route pattern must start with '/': " + pattern);
   }
@@ -78,23 +82,25 @@ void Router::Add(std::string method, std::string pattern, Handler handler) {
   route.method = std::move(method);
   route.pattern = std::move(pattern);
   route.handler = std::move(handler);
+  route.execution = execution;
   routes_.push_back(std::move(route));
 }
 
-Response Router::Dispatch(Request& request) const {
-  const auto segments = RequestSegments(request);
+const Router::Route* Router::Find(const Request& request,
+                                  const std::vector<std::string>* segments,
+                                  std::vector<std::string>* allowed) const {
   // Among routes whose pattern matches, the one for this method with the most literal segments
   // wins (ties: first registered). A GET route stands in for a missing HEAD route.
   const Route* best = nullptr;
   const Route* best_get = nullptr;
   int best_score = -1;
   int best_get_score = -1;
-  std::vector<std::string> allowed;
   for (const Route& route : routes_) {
-    const int score = segments ? MatchScore(route.segments, *segments) : -1;
+    const int score = segments != nullptr ? MatchScore(route.segments, *segments) : -1;
     if (score < 0) continue;
-    if (std::find(allowed.begin(), allowed.end(), route.method) == allowed.end()) {
-      allowed.push_back(route.method);
+    if (allowed != nullptr &&
+        std::find(allowed->begin(), allowed->end(), route.method) == allowed->end()) {
+      allowed->push_back(route.method);
     }
     if (route.method == request.method && score > best_score) {
       best = &route;
@@ -106,7 +112,19 @@ Response Router::Dispatch(Request& request) const {
     }
   }
   if (best == nullptr && request.method == "HEAD") best = best_get;
+  return best;
+}
 
+bool Router::AnswersInline(const Request& request) const {
+  const auto segments = RequestSegments(request);
+  const Route* route = Find(request, segments ? &*segments : nullptr, nullptr);
+  return route != nullptr && route->execution == Execution::kInline;
+}
+
+Response Router::Dispatch(Request& request) const {
+  const auto segments = RequestSegments(request);
+  std::vector<std::string> allowed;
+  const Route* best = Find(request, segments ? &*segments : nullptr, &allowed);
   if (best != nullptr) {
     request.path_params.clear();
     for (std::size_t i = 0; i < best->segments.size(); ++i) {

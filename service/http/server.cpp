@@ -5,7 +5,9 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
+#include <sys/epoll.h>
 #include <sys/eventfd.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -18,7 +20,10 @@
 #include <cstring>
 #include <ctime>
 #include <deque>
+#include <limits>
 #include <mutex>
+#include <optional>
+#include <queue>
 #include <random>
 #include <stdexcept>
 #include <thread>
@@ -46,6 +51,11 @@ constexpr int kDrainMs = 1'000;            ///< after our FIN, unread input is d
 constexpr int kMinWriteTimeoutMs = 10'000; ///< workers give up on a client not reading its answer
 constexpr std::size_t kMaxRejecting = 64;  ///< turned-away connections being answered at once
 constexpr int kMaxPollWaitMs = 1'000;
+constexpr int kMaxEventsPerWait = 256;
+// epoll data of the two non-connection descriptors; connection ids start above them.
+constexpr std::uint64_t kWakeId = 0;
+constexpr std::uint64_t kListenId = 1;
+constexpr std::uint64_t kFirstConnectionId = 2;
 constexpr std::size_t kMaxClientRequestId = 64;
 
 char ToLowerAscii(char c) { return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c; }
@@ -103,27 +113,47 @@ std::tm UtcTm(std::chrono::system_clock::time_point t) {
   return tm;
 }
 
-/// IMF-fixdate for the Date header, e.g. "Sun, 06 Nov 1994 08:49:37 GMT".
+/// IMF-fixdate for the Date header, e.g. "Sun, 06 Nov 1994 08:49:37 GMT". Formatted once per
+/// second per thread: every answer needs it.
 std::string HttpDate(std::chrono::system_clock::time_point t) {
   static constexpr const char* kDays[] = {"Sun", "Mon", "Tue", "Wed", "Thu", "Fri", "Sat"};
   static constexpr const char* kMonths[] = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
                                             "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
-  const std::tm tm = UtcTm(t);
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%s, %02d %s %04d %02d:%02d:%02d GMT", kDays[tm.tm_wday % 7],
-                tm.tm_mday, kMonths[tm.tm_mon % 12], tm.tm_year + 1900, tm.tm_hour, tm.tm_min,
-                tm.tm_sec);
-  return buf;
+  thread_local std::time_t cached_secs = -1;
+  thread_local std::string cached;
+  const std::time_t secs = std::chrono::system_clock::to_time_t(t);
+  if (secs != cached_secs) {
+    const std::tm tm = UtcTm(t);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s, %02d %s %04d %02d:%02d:%02d GMT", kDays[tm.tm_wday % 7],
+                  tm.tm_mday, kMonths[tm.tm_mon % 12], tm.tm_year + 1900, tm.tm_hour, tm.tm_min,
+                  tm.tm_sec);
+    cached = buf;
+    cached_secs = secs;
+  }
+  return cached;
 }
 
-/// ISO-8601 UTC with milliseconds, e.g. "2024-05-01T12:34:56.789Z".
+/// ISO-8601 UTC with milliseconds, e.g. "2024-05-01T12:34:56.789Z". The part up to the seconds
+/// is formatted once per second per thread.
 std::string IsoTime(std::chrono::system_clock::time_point t) {
-  const std::tm tm = UtcTm(t);
-  const auto ms = std::chrono::duration_cast<milliseconds>(t.time_since_epoch()).count() % 1000;
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900,
-                tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms));
-  return buf;
+  thread_local std::time_t cached_secs = -1;
+  thread_local std::string cached;  // "2024-05-01T12:34:56."
+  const std::time_t secs = std::chrono::system_clock::to_time_t(t);
+  if (secs != cached_secs) {
+    const std::tm tm = UtcTm(t);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d.", tm.tm_year + 1900,
+                  tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec);
+    cached = buf;
+    cached_secs = secs;
+  }
+  auto ms = std::chrono::duration_cast<milliseconds>(t.time_since_epoch()).count() % 1000;
+  if (ms < 0) ms += 1000;
+  std::string out = cached;
+  out += {static_cast<char>('0' + ms / 100), static_cast<char>('0' + ms / 10 % 10),
+          static_cast<char>('0' + ms % 10), 'Z'};
+  return out;
 }
 
 const char* ErrorCodeFor(int status) {
@@ -186,6 +216,25 @@ bool SendAll(int fd, std::string_view data, int timeout_ms) {
   return true;
 }
 
+/// The client's address as raw bytes (4 for IPv4, IPv4-mapped IPv6 included; 16 for IPv6), the
+/// key of the per-client connection count; empty for other families.
+std::string PeerKey(const sockaddr_storage& addr) {
+  if (addr.ss_family == AF_INET) {
+    const auto& v4 = reinterpret_cast<const sockaddr_in&>(addr);
+    return std::string(reinterpret_cast<const char*>(&v4.sin_addr), sizeof v4.sin_addr);
+  }
+  if (addr.ss_family == AF_INET6) {
+    const auto& v6 = reinterpret_cast<const sockaddr_in6&>(addr);
+    const auto* bytes = reinterpret_cast<const char*>(&v6.sin6_addr);
+    if (IN6_IS_ADDR_V4MAPPED(&v6.sin6_addr)) return std::string(bytes + 12, 4);
+    return std::string(bytes, sizeof v6.sin6_addr);
+  }
+  return {};
+}
+
+/// True on a server's I/O thread (set by IoLoop): its access-log lines are batched.
+thread_local bool t_on_io_thread = false;
+
 std::string Errno(const std::string& what) { return what + ": " + std::strerror(errno); }
 
 std::string RandomHex32() {
@@ -212,19 +261,25 @@ struct Server::Impl {
       kDraining,  ///< our side is shut down; unread input is discarded until EOF or the deadline
       kClosed,    ///< socket closed; removed at the end of the loop iteration
     };
-    Connection(std::uint64_t id_in, int fd_in, const Limits& limits)
-        : id(id_in), fd(fd_in), parser(limits) {}
+    Connection(std::uint64_t id_in, int fd_in, std::string peer_in, const Limits& limits)
+        : id(id_in), fd(fd_in), peer(std::move(peer_in)), parser(limits) {}
 
     std::uint64_t id;
     int fd;
+    std::string peer;  ///< the client's address bytes (per-client limit); empty if unknown
     RequestParser parser;
     Phase phase = Phase::kReading;
-    bool rejected = false;       ///< over the connection cap: answered 503, not counted
+    bool rejected = false;       ///< over a connection cap: answered 503, not counted
     bool sent_continue = false;  ///< "100 Continue" already queued for the current request
+    bool body_started = false;   ///< the current request's header block is complete
     std::string out;             ///< bytes the I/O thread still has to write
     Clock::time_point idle_since;     ///< accepted, or last answer handed back
     Clock::time_point request_start;  ///< first byte of the request being read
+    Clock::time_point body_start;     ///< end of the current request's header block
     Clock::time_point deadline;       ///< kClosing / kDraining: close by then
+    std::uint32_t watched = 0;        ///< epoll events registered; 0 = not in the epoll set
+    /// The earliest time this connection has in the timer heap (max: none).
+    Clock::time_point armed = Clock::time_point::max();
   };
 
   struct WorkItem {
@@ -241,6 +296,10 @@ struct Server::Impl {
     bool write_ok = false;   ///< false: close at once, nothing left to drain politely
   };
 
+  /// (when, connection id): a connection's deadline in the timer heap. Entries are never removed
+  /// early; one that no longer matches its connection's `armed` time is skipped when it comes up.
+  using Timer = std::pair<Clock::time_point, std::uint64_t>;
+
   Impl(ServerOptions options_in, std::function<Response(Request&)> handler_in)
       : options(std::move(options_in)), handler(std::move(handler_in)), id_prefix(RandomHex32()) {
     options.num_workers = std::max(options.num_workers, 1);
@@ -255,15 +314,19 @@ struct Server::Impl {
   void IoLoop();
   void IoIteration();
   void BeginStop();
-  bool StopComplete() const;
   void ProcessHandbacks();
-  void ExpireTimeouts(Clock::time_point now);
-  int PollTimeoutMs(Clock::time_point now) const;
+  void WatchListener(Clock::time_point now);
+  int WaitTimeoutMs(Clock::time_point now);
+  void ExpireDue(Clock::time_point now);
+  std::optional<Clock::time_point> DeadlineOf(const Connection& c) const;
+  void Expire(Connection& c, Clock::time_point now);
+  void Refresh(Connection& c);
   void AcceptAll();
-  void OnEvent(Connection& c, short revents);
+  void OnEvent(Connection& c, std::uint32_t events);
   void ReadAndParse(Connection& c);
   void Advance(Connection& c);
-  void Dispatch(Connection& c);
+  bool Dispatch(Connection& c);
+  void AnswerInline(Connection& c, WorkItem& item);
   void SendFinal(Connection& c, Response response, const std::string& request_id,
                  std::string_view method, std::string_view path, Clock::time_point start);
   void SendError(Connection& c, int status, std::string_view message);
@@ -281,6 +344,7 @@ struct Server::Impl {
   std::string RequestIdFor(const Request& request);
   void Log(const std::string& request_id, std::string_view method, std::string_view path,
            int status, std::size_t body_bytes, Clock::time_point start);
+  void FlushIoLog();
 
   ServerOptions options;
   std::function<Response(Request&)> handler;
@@ -290,6 +354,7 @@ struct Server::Impl {
 
   int listen_fd = -1;
   int wake_fd = -1;
+  int epoll_fd = -1;
   uint16_t bound_port = 0;
   std::thread io_thread;
   std::vector<std::thread> workers;
@@ -305,14 +370,20 @@ struct Server::Impl {
   bool workers_exit = false;
 
   std::mutex log_mu;
+  std::string io_log;  ///< access-log lines of the I/O thread not yet written (default sink)
 
   // I/O-thread state.
   std::unordered_map<std::uint64_t, std::unique_ptr<Connection>> connections;
-  std::uint64_t next_connection_id = 1;
+  std::vector<std::uint64_t> closed_ids;  ///< closed this iteration; erased at its end
+  std::unordered_map<std::string, std::size_t> per_client;  ///< counted connections per peer
+  std::priority_queue<Timer, std::vector<Timer>, std::greater<>> timers;
+  std::uint64_t next_connection_id = kFirstConnectionId;
   std::size_t open_count = 0;       ///< connections counted against max_connections
   std::size_t rejecting_count = 0;  ///< connections being turned away with 503
   Clock::time_point accept_paused_until{};
+  bool listener_watched = false;
   std::vector<char> read_buffer = std::vector<char>(kReadChunk);
+  std::vector<epoll_event> ready_events = std::vector<epoll_event>(kMaxEventsPerWait);
 };
 
 // ---- set-up ----
@@ -365,10 +436,16 @@ void Server::Impl::Bind() {
     }
   }
   wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-  if (wake_fd < 0) {
-    const std::string message = Errno("eventfd");
-    ::close(listen_fd);
-    listen_fd = -1;
+  epoll_fd = ::epoll_create1(EPOLL_CLOEXEC);
+  epoll_event wake_event{};
+  wake_event.events = EPOLLIN;
+  wake_event.data.u64 = kWakeId;
+  if (wake_fd < 0 || epoll_fd < 0 || ::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, wake_fd, &wake_event) != 0) {
+    const std::string message = Errno("eventfd/epoll");
+    for (int* fd : {&listen_fd, &wake_fd, &epoll_fd}) {
+      if (*fd >= 0) ::close(*fd);
+      *fd = -1;
+    }
     throw std::runtime_error(message);
   }
 }
@@ -382,6 +459,7 @@ void Server::Impl::Wake() {
 // ---- I/O thread ----
 
 void Server::Impl::IoLoop() {
+  t_on_io_thread = true;
   while (true) {
     try {
       IoIteration();
@@ -390,10 +468,9 @@ void Server::Impl::IoLoop() {
       std::fprintf(stderr, "softgrasp http: I/O loop error: %s\n", e.what());
       std::this_thread::sleep_for(milliseconds(10));
     }
-    if (stopping.load() && StopComplete()) break;
+    if (stopping.load() && connections.empty()) break;
   }
-  for (auto& [id, c] : connections) Close(*c);
-  connections.clear();
+  FlushIoLog();
   if (listen_fd >= 0) ::close(listen_fd);
   listen_fd = -1;
 }
@@ -401,74 +478,49 @@ void Server::Impl::IoLoop() {
 void Server::Impl::IoIteration() {
   if (stopping.load()) BeginStop();
   ProcessHandbacks();
+  WatchListener(Clock::now());
+  FlushIoLog();  // before waiting: no line waits for the next event
 
-  std::vector<pollfd> fds;
-  std::vector<Connection*> owners;  // owners[i] for fds[i]; nullptr for the wake and listen fds
-  fds.push_back({wake_fd, POLLIN, 0});
-  owners.push_back(nullptr);
-  const bool accepting = listen_fd >= 0 && Clock::now() >= accept_paused_until;
-  if (accepting) {
-    fds.push_back({listen_fd, POLLIN, 0});
-    owners.push_back(nullptr);
-  }
-  for (auto& [id, c] : connections) {
-    short events = 0;
-    switch (c->phase) {
-      case Connection::Phase::kReading:
-        // A complete request waiting for "100 Continue" to go out needs no more input yet.
-        if (c->parser.state() == RequestParser::State::kNeedMore) events |= POLLIN;
-        if (!c->out.empty()) events |= POLLOUT;
-        break;
-      case Connection::Phase::kClosing: events = POLLOUT; break;
-      case Connection::Phase::kDraining: events = POLLIN; break;
-      case Connection::Phase::kBusy:
-      case Connection::Phase::kClosed: break;
+  const int ready = ::epoll_wait(epoll_fd, ready_events.data(),
+                                 static_cast<int>(ready_events.size()), WaitTimeoutMs(Clock::now()));
+  if (ready < 0 && errno != EINTR) throw std::runtime_error(Errno("epoll_wait"));
+  for (int i = 0; i < ready; ++i) {
+    const epoll_event& event = ready_events[static_cast<std::size_t>(i)];
+    if (event.data.u64 == kWakeId) {
+      std::uint64_t count = 0;
+      [[maybe_unused]] const ssize_t n = ::read(wake_fd, &count, sizeof count);
+      continue;
     }
-    if (events == 0) continue;
-    fds.push_back({c->fd, events, 0});
-    owners.push_back(c.get());
-  }
-
-  const int ready = ::poll(fds.data(), fds.size(), PollTimeoutMs(Clock::now()));
-  if (ready < 0) {
-    if (errno != EINTR) throw std::runtime_error(Errno("poll"));
-    return;
-  }
-  if ((fds[0].revents & POLLIN) != 0) {
-    std::uint64_t count = 0;
-    [[maybe_unused]] const ssize_t n = ::read(wake_fd, &count, sizeof count);
-  }
-  if (accepting && fds[1].revents != 0) AcceptAll();
-  for (std::size_t i = 0; i < fds.size(); ++i) {
-    if (owners[i] == nullptr || fds[i].revents == 0) continue;
+    if (event.data.u64 == kListenId) {
+      if (listen_fd >= 0) AcceptAll();
+      continue;
+    }
+    const auto it = connections.find(event.data.u64);
+    if (it == connections.end()) continue;
+    Connection& c = *it->second;
     try {
-      OnEvent(*owners[i], fds[i].revents);
+      OnEvent(c, event.events);
     } catch (const std::exception&) {
-      Close(*owners[i]);
+      Close(c);
     }
+    Refresh(c);
   }
   // After reading, so that bytes which did arrive in time are never mistaken for silence.
-  ExpireTimeouts(Clock::now());
-  std::erase_if(connections, [](const auto& entry) {
-    return entry.second->phase == Connection::Phase::kClosed;
-  });
+  ExpireDue(Clock::now());
+  for (const std::uint64_t id : closed_ids) connections.erase(id);
+  closed_ids.clear();
 }
 
 void Server::Impl::BeginStop() {
   if (listen_fd >= 0) {
-    ::close(listen_fd);
+    ::close(listen_fd);  // leaves the epoll set with it
     listen_fd = -1;
+    listener_watched = false;
   }
   // Idle connections and requests still arriving are closed; answers in flight go out.
   for (auto& [id, c] : connections) {
     if (c->phase == Connection::Phase::kReading) Close(*c);
   }
-}
-
-bool Server::Impl::StopComplete() const {
-  return std::all_of(connections.begin(), connections.end(), [](const auto& entry) {
-    return entry.second->phase == Connection::Phase::kClosed;
-  });
 }
 
 void Server::Impl::ProcessHandbacks() {
@@ -493,106 +545,180 @@ void Server::Impl::ProcessHandbacks() {
       if (c.parser.in_progress()) c.request_start = now;
       Advance(c);
     }
+    Refresh(c);
   }
 }
 
-void Server::Impl::ExpireTimeouts(Clock::time_point now) {
-  const auto read_timeout = milliseconds(options.read_timeout_ms);
-  const auto idle_timeout = milliseconds(options.keep_alive_timeout_ms);
-  for (auto& [id, c] : connections) {
-    switch (c->phase) {
-      case Connection::Phase::kReading:
-        if (c->parser.state() != RequestParser::State::kNeedMore) break;
-        if (c->parser.in_progress()) {
-          if (now - c->request_start >= read_timeout) {
-            SendError(*c, 408, "request not received within " +
-                                   std::to_string(options.read_timeout_ms) + " ms");
-          }
-        } else if (now - c->idle_since >= idle_timeout) {
-          Close(*c);  // idle keep-alive: silently
-        }
-        break;
-      case Connection::Phase::kClosing:
-      case Connection::Phase::kDraining:
-        if (now >= c->deadline) Close(*c);
-        break;
-      case Connection::Phase::kBusy:
-      case Connection::Phase::kClosed:
-        break;
-    }
+void Server::Impl::WatchListener(Clock::time_point now) {
+  const bool want = listen_fd >= 0 && now >= accept_paused_until;
+  if (want == listener_watched) return;
+  epoll_event event{};
+  event.events = EPOLLIN;
+  event.data.u64 = kListenId;
+  if (::epoll_ctl(epoll_fd, want ? EPOLL_CTL_ADD : EPOLL_CTL_DEL, listen_fd, &event) == 0) {
+    listener_watched = want;
   }
 }
 
-int Server::Impl::PollTimeoutMs(Clock::time_point now) const {
+int Server::Impl::WaitTimeoutMs(Clock::time_point now) {
   Clock::time_point next = now + milliseconds(kMaxPollWaitMs);
-  if (listen_fd >= 0 && accept_paused_until > now) next = std::min(next, accept_paused_until);
-  for (const auto& [id, c] : connections) {
-    switch (c->phase) {
-      case Connection::Phase::kReading:
-        if (c->parser.state() != RequestParser::State::kNeedMore) break;
-        next = std::min(next, c->parser.in_progress()
-                                  ? c->request_start + milliseconds(options.read_timeout_ms)
-                                  : c->idle_since + milliseconds(options.keep_alive_timeout_ms));
-        break;
-      case Connection::Phase::kClosing:
-      case Connection::Phase::kDraining:
-        next = std::min(next, c->deadline);
-        break;
-      case Connection::Phase::kBusy:
-      case Connection::Phase::kClosed:
-        break;
-    }
-  }
+  if (listen_fd >= 0 && !listener_watched) next = std::min(next, accept_paused_until);
+  if (!timers.empty()) next = std::min(next, timers.top().first);
   if (next <= now) return 0;
-  // Round up so that a deadline is not polled for repeatedly just before it passes.
+  // Round up so that a deadline is not waited for repeatedly just before it passes.
   return static_cast<int>(std::chrono::ceil<milliseconds>(next - now).count());
+}
+
+void Server::Impl::ExpireDue(Clock::time_point now) {
+  while (!timers.empty() && timers.top().first <= now) {
+    const auto [when, id] = timers.top();
+    timers.pop();
+    const auto it = connections.find(id);
+    if (it == connections.end()) continue;
+    Connection& c = *it->second;
+    if (c.armed != when) continue;  // superseded by an earlier entry that already came up
+    c.armed = Clock::time_point::max();
+    Expire(c, now);
+    Refresh(c);  // arms the connection's next deadline, if it has one
+  }
+}
+
+std::optional<Clock::time_point> Server::Impl::DeadlineOf(const Connection& c) const {
+  switch (c.phase) {
+    case Connection::Phase::kReading:
+      if (c.parser.state() != RequestParser::State::kNeedMore) return std::nullopt;
+      if (c.body_started) return c.body_start + milliseconds(options.body_timeout_ms);
+      if (c.parser.in_progress()) return c.request_start + milliseconds(options.header_timeout_ms);
+      return c.idle_since + milliseconds(options.keep_alive_timeout_ms);
+    case Connection::Phase::kClosing:
+    case Connection::Phase::kDraining:
+      return c.deadline;
+    case Connection::Phase::kBusy:
+    case Connection::Phase::kClosed:
+      break;
+  }
+  return std::nullopt;
+}
+
+void Server::Impl::Expire(Connection& c, Clock::time_point now) {
+  const auto deadline = DeadlineOf(c);
+  if (!deadline || *deadline > now) return;
+  if (c.phase != Connection::Phase::kReading) {
+    Close(c);  // an answer that could not go out, or a drain that did not end, in time
+  } else if (c.body_started) {
+    SendError(c, 408, "request body not received within " +
+                          std::to_string(options.body_timeout_ms) + " ms");
+  } else if (c.parser.in_progress()) {
+    SendError(c, 408, "request header not received within " +
+                          std::to_string(options.header_timeout_ms) + " ms");
+  } else {
+    Close(c);  // idle keep-alive: silently
+  }
+}
+
+void Server::Impl::Refresh(Connection& c) {
+  if (c.phase == Connection::Phase::kClosed) return;
+  // The header deadline ends and the body deadline starts when the header block is complete.
+  if (c.phase == Connection::Phase::kReading && c.parser.reading_body()) {
+    if (!c.body_started) {
+      c.body_started = true;
+      c.body_start = Clock::now();
+    }
+  } else if (c.phase == Connection::Phase::kReading) {
+    c.body_started = false;
+  }
+
+  std::uint32_t want = 0;
+  switch (c.phase) {
+    case Connection::Phase::kReading:
+      // A complete request waiting for "100 Continue" to go out needs no more input yet.
+      if (c.parser.state() == RequestParser::State::kNeedMore) want |= EPOLLIN;
+      if (!c.out.empty()) want |= EPOLLOUT;
+      break;
+    case Connection::Phase::kClosing: want = EPOLLOUT; break;
+    case Connection::Phase::kDraining: want = EPOLLIN; break;
+    case Connection::Phase::kBusy:  // a worker owns the socket: not even its errors are watched
+    case Connection::Phase::kClosed: break;
+  }
+  if (want != c.watched) {
+    epoll_event event{};
+    event.events = want;
+    event.data.u64 = c.id;
+    const int op = want == 0 ? EPOLL_CTL_DEL : (c.watched == 0 ? EPOLL_CTL_ADD : EPOLL_CTL_MOD);
+    if (::epoll_ctl(epoll_fd, op, c.fd, &event) != 0) {
+      Close(c);  // out of kernel memory for the epoll set: nothing would ever wake this one
+      return;
+    }
+    c.watched = want;
+  }
+
+  if (const auto deadline = DeadlineOf(c); deadline && *deadline < c.armed) {
+    timers.emplace(*deadline, c.id);
+    c.armed = *deadline;
+  }
 }
 
 void Server::Impl::AcceptAll() {
   while (true) {
-    const int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    sockaddr_storage addr{};
+    socklen_t addr_len = sizeof addr;
+    const int fd = ::accept4(listen_fd, reinterpret_cast<sockaddr*>(&addr), &addr_len,
+                             SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) {
       if (errno == EINTR || errno == ECONNABORTED) continue;
       if (errno == EMFILE || errno == ENFILE || errno == ENOBUFS || errno == ENOMEM) {
         accept_paused_until = Clock::now() + milliseconds(100);  // out of descriptors: back off
+        WatchListener(Clock::now());
       }
       return;  // EAGAIN: accepted everything pending
     }
     const int one = 1;
     ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    const bool over_cap = open_count >= options.max_connections;
-    if (over_cap && rejecting_count >= kMaxRejecting) {
+    std::string peer = PeerKey(addr);
+    const char* refusal = nullptr;
+    if (open_count >= options.max_connections) {
+      refusal = "too many connections; retry later";
+    } else if (options.max_connections_per_client > 0 && !peer.empty()) {
+      const auto it = per_client.find(peer);
+      if (it != per_client.end() && it->second >= options.max_connections_per_client) {
+        refusal = "too many connections from this address; retry later";
+      }
+    }
+    if (refusal != nullptr && rejecting_count >= kMaxRejecting) {
       ::close(fd);  // flooded: not even a 503
       continue;
     }
-    auto owned = std::make_unique<Connection>(next_connection_id++, fd, options.limits);
+    auto owned = std::make_unique<Connection>(next_connection_id++, fd, std::move(peer),
+                                              options.limits);
     Connection& c = *owned;
     connections.emplace(c.id, std::move(owned));
     c.idle_since = c.request_start = Clock::now();
-    if (over_cap) {
+    if (refusal != nullptr) {
       c.rejected = true;
       ++rejecting_count;
-      Response busy = ErrorResponse(503, "service_unavailable", "too many connections; retry later");
+      Response busy = ErrorResponse(503, "service_unavailable", refusal);
       busy.set_header("Retry-After", std::to_string(options.retry_after_s));
       SendFinal(c, std::move(busy), RequestIdFor(Request{}), "-", "-", c.request_start);
     } else {
       ++open_count;
+      if (!c.peer.empty()) ++per_client[c.peer];
     }
+    Refresh(c);
   }
 }
 
-void Server::Impl::OnEvent(Connection& c, short revents) {
+void Server::Impl::OnEvent(Connection& c, std::uint32_t events) {
   switch (c.phase) {
     case Connection::Phase::kReading:
-      if ((revents & POLLOUT) != 0 && !FlushOut(c)) return;
-      if ((revents & (POLLIN | POLLHUP | POLLERR)) != 0) {
+      if ((events & EPOLLOUT) != 0 && !FlushOut(c)) return;
+      if ((events & (EPOLLIN | EPOLLHUP | EPOLLERR)) != 0) {
         ReadAndParse(c);
       } else {
-        Advance(c);  // "100 Continue" flushed: a complete request may now be dispatched
+        Advance(c);  // an answer flushed: a complete request may now be dispatched
       }
       break;
     case Connection::Phase::kClosing:
-      if ((revents & (POLLERR | POLLNVAL)) != 0) {
+      if ((events & EPOLLERR) != 0) {
         Close(c);
       } else if (FlushOut(c) && c.out.empty()) {
         StartDrain(c);
@@ -613,6 +739,7 @@ void Server::Impl::ReadAndParse(Connection& c) {
     if (n > 0) {
       if (!c.parser.in_progress()) c.request_start = Clock::now();
       c.parser.Feed(std::string_view(read_buffer.data(), static_cast<std::size_t>(n)));
+      if (static_cast<std::size_t>(n) < read_buffer.size()) break;  // the socket is drained
       continue;
     }
     if (n < 0 && errno == EINTR) continue;
@@ -624,25 +751,28 @@ void Server::Impl::ReadAndParse(Connection& c) {
 }
 
 void Server::Impl::Advance(Connection& c) {
-  if (c.phase != Connection::Phase::kReading) return;
-  switch (c.parser.state()) {
-    case RequestParser::State::kError:
-      SendError(c, c.parser.error_status(), c.parser.error_message());
-      break;
-    case RequestParser::State::kNeedMore:
-      if (c.parser.expects_continue() && !c.sent_continue) {
-        c.sent_continue = true;
-        c.out += "HTTP/1.1 100 Continue\r\n\r\n";
-        FlushOut(c);
-      }
-      break;
-    case RequestParser::State::kComplete:
-      if (c.out.empty()) Dispatch(c);  // else after "100 Continue" has gone out
-      break;
+  // Loops over pipelined requests that are answered here on the I/O thread.
+  while (c.phase == Connection::Phase::kReading) {
+    switch (c.parser.state()) {
+      case RequestParser::State::kError:
+        SendError(c, c.parser.error_status(), c.parser.error_message());
+        return;
+      case RequestParser::State::kNeedMore:
+        if (c.parser.expects_continue() && !c.sent_continue) {
+          c.sent_continue = true;
+          c.out += "HTTP/1.1 100 Continue\r\n\r\n";
+          FlushOut(c);
+        }
+        return;
+      case RequestParser::State::kComplete:
+        // Else after "100 Continue" or the previous answer has gone out.
+        if (!c.out.empty() || !Dispatch(c)) return;
+        break;
+    }
   }
 }
 
-void Server::Impl::Dispatch(Connection& c) {
+bool Server::Impl::Dispatch(Connection& c) {
   WorkItem item;
   item.connection_id = c.id;
   item.fd = c.fd;
@@ -651,7 +781,12 @@ void Server::Impl::Dispatch(Connection& c) {
   item.start = c.request_start;
   item.request.request_id = RequestIdFor(item.request);
   c.sent_continue = false;
+  c.body_started = false;
 
+  if (options.answer_inline && options.answer_inline(item.request)) {
+    AnswerInline(c, item);
+    return c.phase == Connection::Phase::kReading;
+  }
   bool queued = false;
   {
     std::lock_guard<std::mutex> lock(mu);
@@ -663,12 +798,33 @@ void Server::Impl::Dispatch(Connection& c) {
   if (queued) {
     c.phase = Connection::Phase::kBusy;
     queue_cv.notify_one();
-    return;
+    return false;
   }
   Response busy = ErrorResponse(503, "service_unavailable", "server busy; retry later");
   busy.set_header("Retry-After", std::to_string(options.retry_after_s));
   SendFinal(c, std::move(busy), item.request.request_id, item.request.method, item.request.path,
             item.start);
+  return false;
+}
+
+void Server::Impl::AnswerInline(Connection& c, WorkItem& item) {
+  Response response = CallHandler(item.request);
+  const bool keep_open = item.keep_alive && !stopping.load();
+  if (!keep_open) {
+    SendFinal(c, std::move(response), item.request.request_id, item.request.method,
+              item.request.path, item.start);
+    return;
+  }
+  std::size_t body_bytes = 0;
+  c.out += SerializeResponse(response, item.request.request_id, true,
+                             item.request.method == "HEAD", &body_bytes);
+  Log(item.request.request_id, item.request.method, item.request.path, response.status,
+      body_bytes, item.start);
+  if (!FlushOut(c)) return;
+  const auto now = Clock::now();
+  c.idle_since = now;
+  c.parser.Feed("");  // pipelined bytes already received
+  if (c.parser.in_progress()) c.request_start = now;
 }
 
 void Server::Impl::SendFinal(Connection& c, Response response, const std::string& request_id,
@@ -724,13 +880,18 @@ void Server::Impl::Discard(Connection& c) {
 
 void Server::Impl::Close(Connection& c) {
   if (c.phase == Connection::Phase::kClosed) return;
-  ::close(c.fd);
+  ::close(c.fd);  // leaves the epoll set with it
   c.fd = -1;
+  c.watched = 0;
   c.phase = Connection::Phase::kClosed;
+  closed_ids.push_back(c.id);
   if (c.rejected) {
     --rejecting_count;
-  } else {
-    --open_count;
+    return;
+  }
+  --open_count;
+  if (const auto it = per_client.find(c.peer); it != per_client.end() && --it->second == 0) {
+    per_client.erase(it);
   }
 }
 
@@ -758,18 +919,20 @@ void Server::Impl::Serve(WorkItem& item) {
     std::size_t body_bytes = 0;
     const std::string bytes = SerializeResponse(response, item.request.request_id, keep_open,
                                                 item.request.method == "HEAD", &body_bytes);
-    back.write_ok = SendAll(item.fd, bytes, std::max(options.read_timeout_ms, kMinWriteTimeoutMs));
+    back.write_ok = SendAll(item.fd, bytes, std::max(options.body_timeout_ms, kMinWriteTimeoutMs));
     back.keep_open = keep_open && back.write_ok;
     Log(item.request.request_id, item.request.method, item.request.path, response.status,
         body_bytes, item.start);
   } catch (const std::exception&) {
     back.write_ok = false;  // out of memory while answering: drop the connection
   }
+  bool wake = false;
   {
     std::lock_guard<std::mutex> lock(mu);
+    wake = handbacks.empty();  // else a wake-up for the earlier ones is pending
     handbacks.push_back(back);
   }
-  Wake();
+  if (wake) Wake();
 }
 
 Response Server::Impl::CallHandler(Request& request) {
@@ -792,10 +955,20 @@ std::string Server::Impl::RequestIdFor(const Request& request) {
   if (const auto id = request.header("X-Request-Id"); id && IsPrintableId(*id)) {
     return std::string(*id);
   }
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%012llx",
-                static_cast<unsigned long long>(++request_counter));
-  return id_prefix + "-" + buf;
+  // "<prefix>-" and the request number as 12 (or more) lower-case hex digits.
+  std::uint64_t number = ++request_counter;
+  char digits[16];
+  int count = 0;
+  do {
+    digits[count++] = "0123456789abcdef"[number & 15];
+    number >>= 4;
+  } while (number != 0);
+  std::string id = id_prefix;
+  id.reserve(id.size() + 1 + static_cast<std::size_t>(std::max(count, 12)));
+  id += '-';
+  id.append(static_cast<std::size_t>(std::max(12 - count, 0)), '0');
+  while (count > 0) id += digits[--count];
+  return id;
 }
 
 void Server::Impl::Log(const std::string& request_id, std::string_view method,
@@ -805,6 +978,12 @@ void Server::Impl::Log(const std::string& request_id, std::string_view method,
   std::string line = IsoTime(std::chrono::system_clock::now()) + " " + LogField(request_id) + " " +
                      LogField(method) + " " + LogField(path) + " " + std::to_string(status) +
                      " " + std::to_string(body_bytes) + " " + std::to_string(ms) + "ms";
+  if (!options.access_log && t_on_io_thread) {
+    // Written with the rest of this loop iteration's lines (FlushIoLog): one write per batch.
+    io_log += line;
+    io_log += '\n';
+    return;
+  }
   std::lock_guard<std::mutex> lock(log_mu);  // the sink need not be thread-safe
   try {
     if (options.access_log) {
@@ -818,7 +997,29 @@ void Server::Impl::Log(const std::string& request_id, std::string_view method,
   }
 }
 
+void Server::Impl::FlushIoLog() {
+  if (io_log.empty()) return;
+  std::lock_guard<std::mutex> lock(log_mu);
+  std::fwrite(io_log.data(), 1, io_log.size(), stderr);
+  io_log.clear();
+}
+
 // ---- Server ----
+
+std::size_t RaiseOpenFileLimit(std::size_t wanted) {
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_NOFILE, &limit) != 0) return 0;
+  if (limit.rlim_cur != RLIM_INFINITY && limit.rlim_cur < wanted) {
+    const rlim_t target = limit.rlim_max == RLIM_INFINITY
+                              ? static_cast<rlim_t>(wanted)
+                              : std::min<rlim_t>(limit.rlim_max, static_cast<rlim_t>(wanted));
+    rlimit raised = limit;
+    raised.rlim_cur = target;
+    if (target > limit.rlim_cur && ::setrlimit(RLIMIT_NOFILE, &raised) == 0) limit = raised;
+  }
+  return limit.rlim_cur == RLIM_INFINITY ? std::numeric_limits<std::size_t>::max()
+                                         : static_cast<std::size_t>(limit.rlim_cur);
+}
 
 Server::Server(ServerOptions options, std::function<Response(Request&)> handler)
     : impl_(std::make_unique<Impl>(std::move(options), std::move(handler))) {}
@@ -856,6 +1057,8 @@ void Server::Stop() {
   }
   ::close(impl_->wake_fd);
   impl_->wake_fd = -1;
+  ::close(impl_->epoll_fd);
+  impl_->epoll_fd = -1;
 }
 
 }  // namespace softgrasp::http

@@ -103,7 +103,9 @@ http::Response Info(const ServiceConfig& config, bool robot_running,
         {"max_connections", config.server.max_connections},
         {"queue_capacity", config.server.queue_capacity},
         {"workers", config.server.num_workers},
-        {"read_timeout_ms", config.server.read_timeout_ms},
+        {"max_connections_per_client", config.server.max_connections_per_client},
+        {"header_timeout_ms", config.server.header_timeout_ms},
+        {"body_timeout_ms", config.server.body_timeout_ms},
         {"max_fractal_points", config.max_fractal_points},
         {"max_fractal_attempts", config.max_fractal_attempts}}},
       {"models", ModelsJson(model)},
@@ -392,10 +394,16 @@ http::Router BuildRouter(const ServiceConfig& config, std::shared_ptr<robot::Com
                          StiffnessModelPtr stiffness_model) {
   http::Router router;
   const bool robot_running = robot != nullptr;
-  router.Add("GET", "/healthz", [](const http::Request&) { return Healthz(); });
-  router.Add("GET", "/v1/info", [config, robot_running, stiffness_model](const http::Request&) {
-    return Info(config, robot_running, stiffness_model);
-  });
+  // Constant-time answers: served on the I/O thread, so they answer while every worker plans.
+  router.Add(
+      "GET", "/healthz", [](const http::Request&) { return Healthz(); },
+      http::Router::Execution::kInline);
+  router.Add(
+      "GET", "/v1/info",
+      [config, robot_running, stiffness_model](const http::Request&) {
+        return Info(config, robot_running, stiffness_model);
+      },
+      http::Router::Execution::kInline);
   router.Add("POST", "/v1/grasps", [config, stiffness_model](const http::Request& r) {
     return Grasps(r, config, stiffness_model);
   });

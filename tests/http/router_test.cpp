@@ -119,6 +119,28 @@ TEST_F(HttpRouter, RoutesAreListedInRegistrationOrder) {
   EXPECT_EQ(routes[3], (std::pair<std::string, std::string>("GET", "/v1/grasps/{id}")));
 }
 
+TEST(HttpRouterInline, OnlyTheRoutesAddedInlineAnswerInline) {
+  Router router;
+  router.Add("GET", "/healthz", Answer("health"), Router::Execution::kInline);
+  router.Add("POST", "/healthz", Answer("post"));
+  router.Add("GET", "/v1/items/{id}", Answer("item"));
+  router.Add("GET", "/v1/items/fast", Answer("fast"), Router::Execution::kInline);
+  EXPECT_TRUE(router.AnswersInline(MakeRequest("GET", "/healthz")));
+  EXPECT_TRUE(router.AnswersInline(MakeRequest("HEAD", "/healthz")));  // HEAD uses the GET route
+  EXPECT_FALSE(router.AnswersInline(MakeRequest("POST", "/healthz")));
+  EXPECT_TRUE(router.AnswersInline(MakeRequest("GET", "/v1/items/fast")));  // the literal wins
+  EXPECT_FALSE(router.AnswersInline(MakeRequest("GET", "/v1/items/7")));
+  EXPECT_FALSE(router.AnswersInline(MakeRequest("DELETE", "/healthz")));  // 405
+  EXPECT_FALSE(router.AnswersInline(MakeRequest("GET", "/nowhere")));     // 404
+  Request undecodable;
+  undecodable.method = "GET";
+  undecodable.target = undecodable.path = "/healthz%zz";
+  EXPECT_FALSE(router.AnswersInline(undecodable));
+  // Dispatch calls the same route either way.
+  Request request = MakeRequest("GET", "/healthz");
+  EXPECT_EQ(router.Dispatch(request).body, "health");
+}
+
 TEST(HttpRouterAdd, RejectsPatternsWithoutLeadingSlash) {
   Router router;
   EXPECT_THROW(router.Add("GET", "v1/x", Answer("x")), std::invalid_argument);

@@ -41,11 +41,21 @@ struct ClientResponse {
 
 class Client {
  public:
-  explicit Client(uint16_t port) {
+  /// Connects to 127.0.0.1:`port`, from `source_ip` (another loopback address) when given.
+  explicit Client(uint16_t port, const char* source_ip = nullptr) {
     fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
     if (fd_ < 0) throw std::runtime_error("socket");
     timeval tv{5, 0};  // no test ever blocks forever on a read
     ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    if (source_ip != nullptr) {
+      sockaddr_in source{};
+      source.sin_family = AF_INET;
+      ::inet_pton(AF_INET, source_ip, &source.sin_addr);
+      if (::bind(fd_, reinterpret_cast<const sockaddr*>(&source), sizeof source) != 0) {
+        ::close(fd_);
+        throw std::runtime_error("bind to the source address failed");
+      }
+    }
     sockaddr_in addr{};
     addr.sin_family = AF_INET;
     addr.sin_port = htons(port);
@@ -318,7 +328,7 @@ TEST_F(HttpServer, HandlerExceptionIs500AndServingGoesOn) {
 
 TEST_F(HttpServer, SlowClientGets408AndIsClosed) {
   ServerOptions options = Options();
-  options.read_timeout_ms = 200;
+  options.header_timeout_ms = 200;
   auto server = StartServer(options);
   Client client(server->port());
   const auto start = Clock::now();
@@ -328,6 +338,8 @@ TEST_F(HttpServer, SlowClientGets408AndIsClosed) {
   EXPECT_GE(Clock::now() - start, 150ms);
   EXPECT_EQ(response->status, 408);
   EXPECT_EQ(response->json()["error"]["code"], "request_timeout");
+  EXPECT_NE(response->json()["error"]["message"].get<std::string>().find("header"),
+            std::string::npos);
   EXPECT_EQ(response->header("Connection"), "close");
   EXPECT_TRUE(client.ReadUntilClosed());
   const auto lines = log_.WaitFor(1);
@@ -413,6 +425,146 @@ TEST_F(HttpServer, ConnectionsOverTheCapGet503) {
   }
   ASSERT_TRUE(later.has_value());
   EXPECT_EQ(later->status, 200);
+}
+
+TEST_F(HttpServer, HeaderLinesTrickledInGet408AtTheHeaderDeadline) {
+  ServerOptions options = Options();
+  options.header_timeout_ms = 300;
+  options.body_timeout_ms = 60'000;
+  auto server = StartServer(options);
+  Client client(server->port());
+  const auto start = Clock::now();
+  client.Send("GET /slowloris HTTP/1.1\r\n");
+  // A header line every 50 ms: the connection is never silent, but the block never ends.
+  pollfd answer{client.fd(), POLLIN, 0};
+  for (int i = 0; i < 40 && ::poll(&answer, 1, 50) == 0; ++i) {
+    client.Send("X-Keep: " + std::to_string(i) + "\r\n");
+  }
+  const auto response = client.Read();
+  ASSERT_TRUE(response.has_value());
+  EXPECT_EQ(response->status, 408);
+  EXPECT_GE(Clock::now() - start, 250ms);
+  EXPECT_LT(Clock::now() - start, 1500ms);  // not the body deadline
+  EXPECT_NE(response->json()["error"]["message"].get<std::string>().find("header"),
+            std::string::npos);
+  EXPECT_EQ(handled_.load(), 0);
+}
+
+TEST_F(HttpServer, BodyHasItsOwnDeadlineAfterTheHeaders) {
+  ServerOptions options = Options();
+  options.header_timeout_ms = 200;
+  options.body_timeout_ms = 800;
+  auto server = StartServer(options);
+
+  // Headers in time, body later than the header deadline but within the body's: served.
+  Client patient(server->port());
+  patient.Send("POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: 10\r\n\r\nhello");
+  std::this_thread::sleep_for(400ms);
+  patient.Send("world");
+  const auto served = patient.Read();
+  ASSERT_TRUE(served.has_value());
+  EXPECT_EQ(served->status, 200);
+  EXPECT_EQ(served->body, "helloworld");
+
+  // A body that stops arriving: 408 at the body deadline, naming the body.
+  Client stalled(server->port());
+  const auto start = Clock::now();
+  stalled.Send("POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: 10\r\n\r\nhel");
+  const auto timed_out = stalled.Read();
+  ASSERT_TRUE(timed_out.has_value());
+  EXPECT_EQ(timed_out->status, 408);
+  EXPECT_GE(Clock::now() - start, 700ms);
+  EXPECT_NE(timed_out->json()["error"]["message"].get<std::string>().find("body"),
+            std::string::npos);
+  EXPECT_EQ(handled_.load(), 1);
+}
+
+TEST_F(HttpServer, PerClientCapRefusesOnlyThatAddress) {
+  ServerOptions options = Options();
+  options.max_connections_per_client = 2;
+  auto server = StartServer(options);
+  Client a(server->port());
+  Client b(server->port());
+  for (Client* held : {&a, &b}) {
+    held->Send(Get("/hold"));
+    ASSERT_TRUE(held->Read().has_value());  // accepted and counted
+  }
+  Client third(server->port());
+  const auto refused = third.Read();
+  ASSERT_TRUE(refused.has_value());
+  EXPECT_EQ(refused->status, 503);
+  EXPECT_NE(refused->json()["error"]["message"].get<std::string>().find("this address"),
+            std::string::npos);
+
+  Client elsewhere(server->port(), "127.0.0.2");  // another client address: its own budget
+  elsewhere.Send(Get("/other"));
+  const auto served = elsewhere.Read();
+  ASSERT_TRUE(served.has_value());
+  EXPECT_EQ(served->status, 200);
+}
+
+TEST_F(HttpServer, InlineRoutesAnswerWhileEveryWorkerIsBusy) {
+  ServerOptions options = Options();
+  options.num_workers = 1;
+  options.queue_capacity = 1;
+  options.answer_inline = [](const Request& request) { return request.path == "/healthz"; };
+  auto server = StartServer(options);
+  Client busy(server->port());
+  busy.Send(Get("/block"));
+  ASSERT_TRUE(entered_.WaitFor(5s));  // the only worker is blocked
+  Client queued(server->port());
+  queued.Send(Get("/queued"));  // fills the queue
+
+  // Three health checks on one keep-alive connection, pipelined, while the worker is blocked.
+  Client health(server->port());
+  health.Send(Get("/healthz") + Get("/healthz") + Get("/healthz"));
+  for (int i = 0; i < 3; ++i) {
+    const auto response = health.Read();
+    ASSERT_TRUE(response.has_value());
+    EXPECT_EQ(response->status, 200);
+    EXPECT_EQ(response->json()["path"], "/healthz");
+  }
+  pollfd pending{queued.fd(), POLLIN, 0};
+  EXPECT_EQ(::poll(&pending, 1, 0), 0);  // the queued request still waits for the worker
+
+  release_.Open();
+  ASSERT_TRUE(busy.Read().has_value());
+  const auto later = queued.Read();
+  ASSERT_TRUE(later.has_value());
+  EXPECT_EQ(later->status, 200);
+  EXPECT_EQ(handled_.load(), 5);
+}
+
+TEST_F(HttpServer, AThousandSlowClientsDoNotLockOthersOut) {
+  constexpr int kSlowClients = 1000;
+  // Client and server sockets both live in this process.
+  ASSERT_GE(RaiseOpenFileLimit(2 * kSlowClients + 256), 2u * kSlowClients + 256)
+      << "the open-file hard limit is too low for this test";
+  ServerOptions options = Options();
+  options.answer_inline = [](const Request& request) { return request.path == "/healthz"; };
+  auto server = StartServer(options);
+
+  std::vector<std::unique_ptr<Client>> slow;
+  for (int i = 0; i < kSlowClients; ++i) {
+    slow.push_back(std::make_unique<Client>(server->port()));
+    slow.back()->Send("GET /never-finished HTTP/1.1\r\nHost: t\r\n");
+  }
+  // A header line on every slow socket now and then, with health checks on fresh connections in
+  // between: each is answered, none of the slow sockets is refused.
+  for (int round = 0; round < 5; ++round) {
+    for (int i = 0; i < kSlowClients; ++i) {
+      slow[static_cast<std::size_t>(i)]->Send("X-Round: " + std::to_string(round) + "\r\n");
+    }
+    Client health(server->port());
+    health.Send(Get("/healthz"));
+    const auto response = health.Read();
+    ASSERT_TRUE(response.has_value()) << "round " << round;
+    EXPECT_EQ(response->status, 200);
+  }
+  std::vector<pollfd> fds;
+  for (const auto& client : slow) fds.push_back({client->fd(), POLLIN, 0});
+  EXPECT_EQ(::poll(fds.data(), fds.size(), 0), 0);  // no slow socket got an answer (no 503)
+  EXPECT_EQ(handled_.load(), 5);
 }
 
 TEST_F(HttpServer, StopLetsAnInFlightRequestFinish) {
