@@ -54,12 +54,15 @@ softgrasp::core::Result<std::shared_ptr<softgrasp::robot::CommandTracker>> Start
   robot::TrackerOptions tracker_options;
   tracker_options.journal_dir = robot.journal_dir;
   tracker_options.command_timeout_s = robot.command_timeout_s;
+  tracker_options.retention_s = robot.retention_s;
+  tracker_options.retention_max_commands = robot.retention_max_commands;
   auto tracker = robot::CommandTracker::Create(tracker_options, std::move(bridge).value());
   if (!tracker) return tracker.error();
   const robot::TrackerStats stats = tracker.value()->stats();
   std::cerr << "softgrasp-server: robot endpoints on DDS domain " << robot.domain_id << ", journal "
             << robot.journal_dir << " (" << stats.replayed_commands << " commands replayed, "
-            << stats.republished << " re-sent)\n";
+            << stats.republished << " re-sent, " << stats.forgotten_commands
+            << " finished ones past their retention forgotten)\n";
   return std::shared_ptr<robot::CommandTracker>(std::move(tracker).value());
 }
 

@@ -175,6 +175,8 @@ std::map<std::string, std::map<std::string, Setter>> Sections(ServiceConfig& c) 
         {"workspace", WorkspaceBox(&c.robot.workspace)},
         {"command_timeout_s", Number(&c.robot.command_timeout_s, 0.1, 86400)},
         {"journal_dir", String(&c.robot.journal_dir)},
+        {"retention_s", Number(&c.robot.retention_s, 1, 3.2e8)},
+        {"retention_max_commands", Number(&c.robot.retention_max_commands, 1, 1e9)},
         {"default_force_n", Number(&c.robot.default_force_n, 0.01, 1000)}}},
   };
 }
@@ -490,6 +492,8 @@ std::string ConfigToJson(const ServiceConfig& c) {
           {"max_m", c.robot.workspace.max_m}}},
         {"command_timeout_s", c.robot.command_timeout_s},
         {"journal_dir", c.robot.journal_dir},
+        {"retention_s", c.robot.retention_s},
+        {"retention_max_commands", c.robot.retention_max_commands},
         {"default_force_n", c.robot.default_force_n}}},
   };
   for (std::size_t i = 0; i < c.robot.tokens.size(); ++i) j["robot"]["tokens"].push_back("***");

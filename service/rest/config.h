@@ -30,6 +30,10 @@ struct RobotConfig {
   double command_timeout_s = 60.0;  ///< no result this long after acceptance: timed_out
   /// Folder of the command journal; "" = DefaultJournalDir().
   std::string journal_dir;
+  /// Finished commands (and their ids' idempotency) are kept this long, and at most this many;
+  /// older ones are forgotten when the journal is compacted (robot::TrackerOptions).
+  double retention_s = 86400.0;
+  long long retention_max_commands = 100000;
   double default_force_n = 10.0;  ///< closing force when a request gives none
 };
 

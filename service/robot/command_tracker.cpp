@@ -1,11 +1,14 @@
 #include "service/robot/command_tracker.h"
 
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
+#include <unordered_set>
 #include <utility>
 
 namespace softgrasp::robot {
@@ -114,7 +117,101 @@ std::string TimeoutDetail(double timeout_s) {
   return os.str();
 }
 
+// When a finished command finished, on the service's clock: its timeout, else its result.
+std::int64_t FinishedUnixNs(const CommandRecord& r) {
+  if (r.timed_out_unix_ns > 0) return r.timed_out_unix_ns;
+  if (r.result_received_unix_ns > 0) return r.result_received_unix_ns;
+  return r.accepted_unix_ns;
+}
+
+// The journal records behind a command: accepted, and its result and timeout when it has them.
+std::int64_t JournalRecordsOf(const CommandRecord& r) {
+  return 1 + (r.result ? 1 : 0) + (r.timed_out_unix_ns > 0 ? 1 : 0);
+}
+
 }  // namespace
+
+std::string AcceptedJournalRecord(const CommandRecord& record) {
+  return json{{"type", "accepted"},
+              {"id", record.command.command_id},
+              {"fingerprint", record.fingerprint},
+              {"accepted_unix_ns", record.accepted_unix_ns},
+              {"command", CommandToJson(record.command)}}
+      .dump();
+}
+
+std::string ResultJournalRecord(const std::string& command_id, std::int64_t received_unix_ns,
+                                const GraspResult& result) {
+  return json{{"type", "result"},
+              {"id", command_id},
+              {"received_unix_ns", received_unix_ns},
+              {"result", ResultToJson(result)}}
+      .dump();
+}
+
+std::string TimedOutJournalRecord(const std::string& command_id, std::int64_t unix_ns,
+                                  const std::string& detail) {
+  return json{{"type", "timed_out"}, {"id", command_id}, {"unix_ns", unix_ns}, {"detail", detail}}
+      .dump();
+}
+
+std::optional<std::string> JournalRecordId(std::string_view payload) {
+  // A scan for the top-level "id" member that skips strings (with their escapes) and tracks the
+  // nesting, so that "id" keys inside nested objects or inside string values are not taken. Much
+  // faster than parsing whole records, which matters when a compaction reads a large journal.
+  const auto skip_string = [&](std::size_t open, bool* escaped) {  // index of the closing quote
+    std::size_t i = open + 1;
+    while (i < payload.size() && payload[i] != '"') {
+      if (payload[i] == '\\') {
+        *escaped = true;
+        ++i;
+      }
+      ++i;
+    }
+    return i;
+  };
+  const auto skip_space = [&](std::size_t i) {
+    while (i < payload.size() && std::isspace(static_cast<unsigned char>(payload[i]))) ++i;
+    return i;
+  };
+  int depth = 0;
+  bool expect_key = false;
+  for (std::size_t i = 0; i < payload.size(); ++i) {
+    const char c = payload[i];
+    if (c == '"') {
+      bool escaped = false;
+      const std::size_t close = skip_string(i, &escaped);
+      if (close >= payload.size()) break;
+      const bool is_id_key =
+          depth == 1 && expect_key && !escaped && payload.substr(i + 1, close - i - 1) == "id";
+      expect_key = false;
+      i = close;
+      if (!is_id_key) continue;
+      std::size_t value = skip_space(close + 1);
+      if (value >= payload.size() || payload[value] != ':') break;
+      value = skip_space(value + 1);
+      if (value >= payload.size() || payload[value] != '"') break;
+      bool value_escaped = false;
+      const std::size_t value_close = skip_string(value, &value_escaped);
+      if (value_close >= payload.size() || value_escaped) break;
+      return std::string(payload.substr(value + 1, value_close - value - 1));
+    }
+    if (c == '{' || c == '[') {
+      ++depth;
+      expect_key = c == '{' && depth == 1;
+    } else if (c == '}' || c == ']') {
+      --depth;
+    } else if (c == ',' && depth == 1) {
+      expect_key = true;
+    }
+  }
+  // Anything unusual (escapes in the id, a malformed record): the parser decides.
+  const json j = json::parse(payload.begin(), payload.end(), nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object()) return std::nullopt;
+  const auto id = j.find("id");
+  if (id == j.end() || !id->is_string()) return std::nullopt;
+  return id->get<std::string>();
+}
 
 const char* CommandStateName(CommandState state) {
   switch (state) {
@@ -152,9 +249,21 @@ core::Result<std::unique_ptr<CommandTracker>> CommandTracker::Create(
     return MakeError(ErrorCode::kInvalidArgument, "command_timeout_s must be > 0",
                      "command_timeout_s");
   }
-  if (!(options.poll_period_s > 0.0) || !(options.republish_period_s > 0.0)) {
-    return MakeError(ErrorCode::kInvalidArgument, "poll and republish periods must be > 0",
-                     "poll_period_s");
+  if (!(options.poll_period_s > 0.0) || !(options.republish_period_s > 0.0) ||
+      !(options.compaction_check_period_s > 0.0)) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "poll, republish and compaction check periods must be > 0", "poll_period_s");
+  }
+  if (!(options.retention_s >= 0.0) || !std::isfinite(options.retention_s)) {
+    return MakeError(ErrorCode::kInvalidArgument, "retention_s must be >= 0", "retention_s");
+  }
+  if (options.retention_max_commands < 0) {
+    return MakeError(ErrorCode::kInvalidArgument, "retention_max_commands must be >= 0",
+                     "retention_max_commands");
+  }
+  if (options.compaction_min_dropped_records < 1) {
+    return MakeError(ErrorCode::kInvalidArgument, "compaction_min_dropped_records must be >= 1",
+                     "compaction_min_dropped_records");
   }
   auto opened = Journal::Open(options.journal_dir);
   if (!opened) return opened.error();
@@ -166,6 +275,7 @@ core::Result<std::unique_ptr<CommandTracker>> CommandTracker::Create(
     tracker->Warn("robot journal " + tracker->journal_->path() + ": " + w);
   }
   tracker->Replay(opened.value().payloads);
+  tracker->CompactJournal(/*at_start=*/true);
   tracker->RepublishQueued();
   tracker->thread_ = std::thread([t = tracker.get()] { t->Loop(); });
   return tracker;
@@ -317,13 +427,8 @@ core::Result<CommandTracker::Submitted> CommandTracker::Submit(GraspCommand comm
     entry.record.state = CommandState::kQueued;
     entry.deadline = Clock::now() + Seconds(options_.command_timeout_s);
     entry.last_publish = Clock::now();
-    const json record = {{"type", "accepted"},
-                         {"id", c.command_id},
-                         {"fingerprint", entry.record.fingerprint},
-                         {"accepted_unix_ns", entry.record.accepted_unix_ns},
-                         {"command", CommandToJson(c)}};
     // Journal first: a command the journal does not hold is never sent.
-    auto journaled = journal_->Append(record.dump());
+    auto journaled = journal_->Append(AcceptedJournalRecord(entry.record));
     if (!journaled) {
       return MakeError(
           ErrorCode::kInternal,
@@ -383,6 +488,7 @@ TrackerStats CommandTracker::stats() const {
 
 void CommandTracker::Loop() {
   auto next_republish = Clock::now() + Seconds(options_.republish_period_s);
+  auto next_compaction_check = Clock::now() + Seconds(options_.compaction_check_period_s);
   for (;;) {
     {
       std::unique_lock<std::mutex> lock(stop_mutex_);
@@ -395,6 +501,10 @@ void CommandTracker::Loop() {
     if (Clock::now() >= next_republish) {
       RepublishQueued();
       next_republish = Clock::now() + Seconds(options_.republish_period_s);
+    }
+    if (Clock::now() >= next_compaction_check) {
+      CompactJournal(/*at_start=*/false);
+      next_compaction_check = Clock::now() + Seconds(options_.compaction_check_period_s);
     }
   }
 }
@@ -430,11 +540,7 @@ void CommandTracker::ApplyResults(std::vector<GraspResult> results) {
       }
       r.result_received_unix_ns = now_ns;
       r.result = result;
-      record = json{{"type", "result"},
-                    {"id", r.command.command_id},
-                    {"received_unix_ns", now_ns},
-                    {"result", ResultToJson(result)}}
-                   .dump();
+      record = ResultJournalRecord(r.command.command_id, now_ns, result);
     }
     AppendJournal(record);
   }
@@ -480,9 +586,7 @@ void CommandTracker::ExpireOverdue() {
       r.state = CommandState::kTimedOut;
       r.timed_out_unix_ns = bridge::UnixNowNs();
       r.detail = TimeoutDetail(options_.command_timeout_s);
-      records.push_back(json{
-          {"type", "timed_out"}, {"id", id}, {"unix_ns", r.timed_out_unix_ns}, {"detail", r.detail}}
-                            .dump());
+      records.push_back(TimedOutJournalRecord(id, r.timed_out_unix_ns, r.detail));
     }
   }
   for (const std::string& record : records) AppendJournal(record);
@@ -505,6 +609,87 @@ void CommandTracker::RepublishQueued() {
     std::lock_guard<std::mutex> lock(mutex_);
     ++stats_.republished;
   }
+}
+
+// ---- compaction ----
+
+void CommandTracker::CompactJournal(bool at_start) {
+  // Records are appended by Submit under mutex_, and by this thread (results, timeouts). So when
+  // the plan is made under mutex_, every record of a command chosen to be forgotten starts before
+  // `decided`, and none will follow: the command is finished, and it stays in entries_ (a
+  // resubmission of its id gets the old record, nothing is appended) until the journal no
+  // longer holds it. Memory therefore never forgets an id that the journal still holds, and a
+  // new command with a forgotten id is only ever appended after the old one's records are gone.
+  Journal::Position decided;
+  std::vector<std::string> forget_ids;
+  std::unordered_set<std::string> keep_ids;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    decided = journal_->End();
+    if (!at_start && decided.records < options_.compaction_min_dropped_records) return;
+    const std::int64_t now_ns = bridge::UnixNowNs();
+    const double retention_ns = options_.retention_s * 1e9;
+    std::int64_t kept_records = 0;
+    std::vector<std::pair<std::int64_t, const Entry*>> retained;  // finished unix ns, command
+    for (const auto& [id, entry] : entries_) {
+      if (!IsTerminal(entry.record.state)) {
+        kept_records += JournalRecordsOf(entry.record);
+        continue;
+      }
+      const std::int64_t finished_ns = FinishedUnixNs(entry.record);
+      if (static_cast<double>(now_ns - finished_ns) > retention_ns) {
+        forget_ids.push_back(id);
+      } else {
+        retained.emplace_back(finished_ns, &entry);
+        kept_records += JournalRecordsOf(entry.record);
+      }
+    }
+    const auto max_retained = static_cast<std::size_t>(options_.retention_max_commands);
+    if (retained.size() > max_retained) {
+      const auto newest_first = [](const auto& a, const auto& b) {
+        return a.first != b.first
+                   ? a.first > b.first
+                   : a.second->record.command.command_id < b.second->record.command.command_id;
+      };
+      const auto cut = retained.begin() + static_cast<std::ptrdiff_t>(max_retained);
+      std::nth_element(retained.begin(), cut, retained.end(), newest_first);
+      for (auto it = cut; it != retained.end(); ++it) {
+        forget_ids.push_back(it->second->record.command.command_id);
+        kept_records -= JournalRecordsOf(it->second->record);
+      }
+    }
+    // Records that go: those of forgotten commands, and those replay could not use. Compacting
+    // only once they are at least as many as those kept bounds the rewriting to one record
+    // written per record appended.
+    const std::int64_t dropped_records = decided.records - kept_records;
+    const std::int64_t worth =
+        at_start ? 1 : std::max(kept_records, options_.compaction_min_dropped_records);
+    if (dropped_records < worth) return;
+    const std::unordered_set<std::string> forget(forget_ids.begin(), forget_ids.end());
+    keep_ids.reserve(entries_.size() - forget.size());
+    for (const auto& [id, entry] : entries_) {
+      if (forget.count(id) == 0) keep_ids.insert(id);
+    }
+  }
+
+  auto compacted = journal_->Compact(decided, [&keep_ids](std::string_view payload) {
+    const std::optional<std::string> id = JournalRecordId(payload);
+    return id && keep_ids.count(*id) != 0;
+  });
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!compacted) {
+    ++stats_.compaction_errors;
+    Warn("robot journal: compaction failed (" + compacted.error().message +
+         "); finished commands are kept until a later one succeeds");
+    return;
+  }
+  for (const std::string& id : forget_ids) entries_.erase(id);
+  const CompactionReport& report = compacted.value();
+  ++stats_.compactions;
+  stats_.compaction_dropped_records += report.records_before - report.records_after;
+  stats_.forgotten_commands += static_cast<std::int64_t>(forget_ids.size());
+  stats_.last_compaction_bytes_before = report.bytes_before;
+  stats_.last_compaction_bytes_after = report.bytes_after;
 }
 
 }  // namespace softgrasp::robot

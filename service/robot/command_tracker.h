@@ -14,6 +14,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -47,6 +48,21 @@ struct TrackerOptions {
   double poll_period_s = 0.05;
   /// How often queued commands (whose first write failed) are written again.
   double republish_period_s = 1.0;
+  /// Finished commands (succeeded, failed, rejected, timed_out) stay known, in memory and in the
+  /// journal, for this long after they finished (the result's or the timeout's time): Get answers
+  /// them and their ids stay idempotent. Older ones are forgotten by the next compaction of the
+  /// journal; their ids are then new again. Commands not finished are kept whatever their age.
+  double retention_s = 86400.0;
+  /// At most this many finished commands are kept (the most recently finished) past a
+  /// compaction, whatever their age: a bound on memory, on the journal's size and on the time to
+  /// replay it.
+  std::int64_t retention_max_commands = 100000;
+  /// How often the background thread looks whether the journal is worth compacting: when it
+  /// holds at least compaction_min_dropped_records records that are no longer needed, and at
+  /// least as many as are still needed (so rewriting costs at most one write per record
+  /// appended). Compaction also runs once at start, after the replay, when anything can go.
+  double compaction_check_period_s = 10.0;
+  std::int64_t compaction_min_dropped_records = 1000;
   /// Warnings (journal problems, late or unknown results). Default: stderr.
   std::function<void(const std::string&)> log;
 };
@@ -72,8 +88,26 @@ struct TrackerStats {
   std::int64_t skipped_records = 0;    ///< journal records that could not be used
   std::int64_t unknown_results = 0;    ///< results for ids this service never accepted
   std::int64_t journal_errors = 0;     ///< failed journal writes after acceptance
+  std::int64_t compactions = 0;        ///< journal compactions done (at start and later)
+  std::int64_t compaction_errors = 0;  ///< compactions that failed (the old file stays in use)
+  std::int64_t compaction_dropped_records = 0;  ///< records the compactions left out, in all
+  /// Finished commands forgotten after their retention: their ids are new again.
+  std::int64_t forgotten_commands = 0;
+  std::int64_t last_compaction_bytes_before = 0;  ///< the journal's size before the last one
+  std::int64_t last_compaction_bytes_after = 0;
   JournalReport journal;
 };
+
+/// The journal records the tracker writes, one JSON object each (docs/robot-api.md, "Journal").
+/// Exposed for tests, which prepare journals with them.
+std::string AcceptedJournalRecord(const CommandRecord& record);
+std::string ResultJournalRecord(const std::string& command_id, std::int64_t received_unix_ns,
+                                const bridge::GraspResult& result);
+std::string TimedOutJournalRecord(const std::string& command_id, std::int64_t unix_ns,
+                                  const std::string& detail);
+/// The top-level "id" member of a journal record; nullopt when the record is not a JSON object or
+/// has no string "id". What compaction reads to tell whose record it is.
+std::optional<std::string> JournalRecordId(std::string_view payload);
 
 class CommandTracker {
  public:
@@ -127,6 +161,10 @@ class CommandTracker {
   /// Writes the command on the bus and moves it from queued to sent, outside the lock.
   void PublishOutsideLock(const bridge::GraspCommand& command);
   void AppendJournal(const std::string& payload);  // logs and counts failures
+  /// Forgets finished commands past their retention and rewrites the journal without them (and
+  /// without records nothing uses). At start (`at_start`), when anything can go; later, when
+  /// enough can go. Runs on the background thread (or before it starts).
+  void CompactJournal(bool at_start);
 
   TrackerOptions options_;
   std::unique_ptr<bridge::ServiceBridge> bridge_;

@@ -1,21 +1,24 @@
 // CommandTracker with a real ServiceBridge and a real RobotEndpoint in this process (loopback DDS,
 // this binary's own domain): forward -> executing -> result, idempotency counted on the bus,
-// robot choice, timeouts, and restarts over the journal (including a result written while the
-// service was down).
+// robot choice, timeouts, restarts over the journal (including a result written while the
+// service was down), and the retention of finished commands when the journal is compacted.
 #include "service/robot/command_tracker.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "service/robot/journal.h"
 #include "tests/robot/robot_test_util.h"
 
 namespace softgrasp::robot {
@@ -305,6 +308,219 @@ TEST(CommandTrackerTest, BadJournalRecordsAreSkippedWithWarnings) {
   EXPECT_EQ(logged.lines.size(), 6u);  // five records and the torn tail
 }
 
+// ---- retention and compaction ----
+
+constexpr std::int64_t kNsPerS = 1'000'000'000;
+
+// Like the REST layer's fingerprints: JSON in a string, here with a decoy "id" inside.
+std::string Fingerprint(const std::string& id) {
+  return R"({"id":"decoy-)" + id + R"(","note":"a \"quoted\" word, a \\ and }]"})";
+}
+
+TEST(JournalRecordIdTest, FindsTheTopLevelIdOnly) {
+  EXPECT_EQ(JournalRecordId(R"({"type":"result","id":"a-1","result":{"command_id":"x"}})"), "a-1");
+  // Not the "id" of a nested object or inside a string value, nor a value that reads "id".
+  EXPECT_EQ(
+      JournalRecordId(
+          R"({"command":{"id":"nested"},"note":"\",\"id\":\"in-a-string","type":"id","id":"top"})"),
+      "top");
+  EXPECT_EQ(JournalRecordId(R"({"list":[{"id":"in-array"}],"id":"top"})"), "top");
+  EXPECT_EQ(JournalRecordId(" { \"id\" : \"spaced\" } "), "spaced");
+  // Escapes in the key or the value: the parser decides.
+  EXPECT_EQ(JournalRecordId(R"({"i\u0064":"escaped-key"})"), "escaped-key");
+  EXPECT_EQ(JournalRecordId(R"({"id":"with \"quote\""})"), "with \"quote\"");
+  EXPECT_EQ(JournalRecordId(AcceptedJournalRecord([] {
+              CommandRecord r;
+              r.command = MakeCommand("real", "arm-1");
+              r.fingerprint = Fingerprint("real");
+              return r;
+            }())),
+            "real");
+  for (const char* none : {R"({"type":"result"})", R"({"id":5})", R"(["id","x"])", "not json",
+                           R"({"command":{"id":"nested"}})", R"({"id":"unterminated)", ""}) {
+    EXPECT_FALSE(JournalRecordId(none)) << none;
+  }
+}
+
+// A journal as a service would have left it, with commands accepted and finished at chosen times.
+class JournalWriter {
+ public:
+  explicit JournalWriter(const std::string& dir) {
+    auto opened = Journal::Open(dir);
+    if (!opened) ADD_FAILURE() << opened.error().message;
+    if (opened) journal_ = std::move(opened.value().journal);
+  }
+  void Accepted(const std::string& id, std::int64_t unix_ns) {
+    CommandRecord record;
+    record.command = MakeCommand(id, "arm-1");
+    record.fingerprint = Fingerprint(id);
+    record.accepted_unix_ns = unix_ns;
+    Write(AcceptedJournalRecord(record));
+  }
+  void Result(const std::string& id, std::int64_t unix_ns) {
+    bridge::GraspResult result = SqueezeResult(MakeCommand(id, "arm-1"));
+    result.robot_id = "arm-1";
+    Write(ResultJournalRecord(id, unix_ns, result));
+  }
+  void TimedOut(const std::string& id, std::int64_t unix_ns) {
+    Write(TimedOutJournalRecord(id, unix_ns, "no result within 60 s"));
+  }
+  void Write(const std::string& payload) {
+    if (auto appended = journal_->Append(payload); !appended) {
+      ADD_FAILURE() << appended.error().message;
+    }
+  }
+
+ private:
+  std::unique_ptr<Journal> journal_;
+};
+
+std::unique_ptr<CommandTracker> MakeRetainingTracker(const std::string& dir, double retention_s,
+                                                     std::int64_t max_commands) {
+  TrackerOptions options;
+  options.journal_dir = dir;
+  options.command_timeout_s = 20.0;
+  options.retention_s = retention_s;
+  options.retention_max_commands = max_commands;
+  options.compaction_check_period_s = 0.1;
+  options.compaction_min_dropped_records = 1;
+  auto tracker = CommandTracker::Create(options, MakeServiceBridge());
+  if (!tracker) ADD_FAILURE() << tracker.error().message;
+  return tracker ? std::move(tracker).value() : nullptr;
+}
+
+// The command ids the journal file holds records of, in order of their first record.
+std::vector<std::string> JournalIds(const std::string& dir) {
+  auto opened = Journal::Open(dir);
+  if (!opened) {
+    ADD_FAILURE() << opened.error().message;
+    return {};
+  }
+  std::vector<std::string> ids;
+  for (const std::string& payload : opened.value().payloads) {
+    const std::string id = nlohmann::json::parse(payload).at("id").get<std::string>();
+    if (std::find(ids.begin(), ids.end(), id) == ids.end()) ids.push_back(id);
+  }
+  return ids;
+}
+
+TEST(CommandTrackerTest, AtStartFinishedCommandsPastTheirRetentionAreForgottenByAgeAndByCount) {
+  TempDir dir("tracker-retention");
+  const std::int64_t now = bridge::UnixNowNs();
+  const std::int64_t hours_ago = now - 3 * 3600 * kNsPerS;
+  {
+    JournalWriter journal(dir.str());
+    journal.Accepted("old-done", hours_ago);
+    journal.Result("old-done", hours_ago + kNsPerS);
+    journal.Accepted("old-timeout", hours_ago);
+    journal.TimedOut("old-timeout", hours_ago + 60 * kNsPerS);
+    // Accepted hours ago and never finished: kept whatever its age.
+    journal.Accepted("old-pending", hours_ago);
+    // Five recent ones: with `late` below, six finished within the hour, and only the four that
+    // finished last are kept (retention_max_commands).
+    for (int i = 1; i <= 5; ++i) {
+      const std::string id = "recent-" + std::to_string(i);
+      journal.Accepted(id, now - 100 * kNsPerS);
+      journal.Result(id, now - (60 - 10 * i) * kNsPerS);
+    }
+    // An old command that timed out recently (its age counts from the timeout) and got its
+    // result late: kept, with both records.
+    journal.Accepted("late", hours_ago);
+    journal.TimedOut("late", now - 5 * kNsPerS);
+    journal.Result("late", now - 4 * kNsPerS);
+    // A record replay cannot use: dropped.
+    journal.Result("never-accepted", now);
+  }
+  const std::vector<std::string> forgotten = {"old-done", "old-timeout", "recent-1", "recent-2"};
+  const std::vector<std::string> kept = {"old-pending", "recent-3", "recent-4", "recent-5", "late"};
+  {
+    auto tracker = MakeRetainingTracker(dir.str(), /*retention_s=*/3600, /*max_commands=*/4);
+    ASSERT_TRUE(tracker);
+    const TrackerStats stats = tracker->stats();
+    EXPECT_EQ(stats.replayed_commands, 9);
+    EXPECT_EQ(stats.compactions, 1);
+    EXPECT_EQ(stats.compaction_errors, 0);
+    EXPECT_EQ(stats.forgotten_commands, 4);
+    EXPECT_EQ(stats.compaction_dropped_records, 9);  // 2 for each forgotten, 1 unusable
+    EXPECT_GT(stats.last_compaction_bytes_before, stats.last_compaction_bytes_after);
+    EXPECT_EQ(static_cast<std::int64_t>(std::filesystem::file_size(dir.path() / kJournalFileName)),
+              stats.last_compaction_bytes_after);
+    for (const std::string& id : forgotten) EXPECT_FALSE(tracker->Get(id)) << id;
+    for (const std::string& id : kept) EXPECT_TRUE(tracker->Get(id)) << id;
+    EXPECT_EQ(StateOf(*tracker, "late"), CommandState::kTimedOut);
+    EXPECT_TRUE(tracker->Get("late")->result_late);
+    EXPECT_FALSE(IsTerminal(StateOf(*tracker, "old-pending")));
+
+    // Kept ids keep their idempotency; a forgotten id is a new command (no robot: 503).
+    auto same = tracker->Submit(Command("recent-4"), Fingerprint("recent-4"));
+    ASSERT_TRUE(same) << same.error().message;
+    EXPECT_FALSE(same.value().created);
+    EXPECT_EQ(tracker->Submit(Command("recent-4"), "other").error().code,
+              core::ErrorCode::kConflict);
+    EXPECT_EQ(tracker->Submit(Command("recent-1"), Fingerprint("recent-1")).error().code,
+              core::ErrorCode::kUnavailable);
+  }
+  EXPECT_EQ(JournalIds(dir.str()),
+            (std::vector<std::string>{"old-pending", "recent-3", "recent-4", "recent-5", "late"}));
+
+  // Reopened: the same commands, idempotency intact, nothing more to compact.
+  auto tracker = MakeRetainingTracker(dir.str(), 3600, 4);
+  ASSERT_TRUE(tracker);
+  EXPECT_EQ(tracker->stats().replayed_commands, 5);
+  EXPECT_EQ(tracker->stats().compactions, 0);
+  for (const std::string& id : forgotten) EXPECT_FALSE(tracker->Get(id)) << id;
+  for (const std::string& id : kept) EXPECT_TRUE(tracker->Get(id)) << id;
+  auto same = tracker->Submit(Command("recent-3"), Fingerprint("recent-3"));
+  ASSERT_TRUE(same) << same.error().message;
+  EXPECT_FALSE(same.value().created);
+  EXPECT_EQ(tracker->Submit(Command("late"), "other").error().code, core::ErrorCode::kConflict);
+}
+
+TEST(CommandTrackerTest, TheBackgroundThreadCompactsFinishedCommandsAwayAndKeepsAPendingOne) {
+  TempDir dir("tracker-compaction");
+  {
+    auto tracker = MakeRetainingTracker(dir.str(), /*retention_s=*/1.0, /*max_commands=*/100);
+    auto robot = MakeRobot("arm-1");
+    ASSERT_TRUE(tracker && robot);
+    ASSERT_GE(WaitUntil([&] { return RobotAlive(*tracker, "arm-1"); }, 10.0), 0.0);
+    for (int i = 0; i < 4; ++i) {
+      const std::string id = "done-" + std::to_string(i);
+      ASSERT_TRUE(tracker->Submit(Command(id), "fp"));
+      auto c = robot->WaitForCommand(10.0);
+      ASSERT_TRUE(c && c.value());
+      ASSERT_TRUE(robot->PublishResult(SqueezeResult(*c.value())));
+      ASSERT_GE(WaitUntil([&] { return StateOf(*tracker, id) == CommandState::kSucceeded; }, 10.0),
+                0.0);
+    }
+    // The robot takes this one and never answers.
+    ASSERT_TRUE(tracker->Submit(Command("pending"), "fp-pending"));
+    auto c = robot->WaitForCommand(10.0);
+    ASSERT_TRUE(c && c.value());
+
+    // A second after their results, the finished commands are past their retention.
+    ASSERT_GE(WaitUntil([&] { return tracker->stats().forgotten_commands == 4; }, 10.0), 0.0);
+    const TrackerStats stats = tracker->stats();
+    EXPECT_GE(stats.compactions, 1);
+    EXPECT_EQ(stats.compaction_errors, 0);
+    EXPECT_EQ(stats.compaction_dropped_records, 8);
+    EXPECT_GT(stats.last_compaction_bytes_before, stats.last_compaction_bytes_after);
+    for (int i = 0; i < 4; ++i) EXPECT_FALSE(tracker->Get("done-" + std::to_string(i)));
+    ASSERT_TRUE(tracker->Get("pending"));
+    EXPECT_EQ(tracker->Get("pending")->fingerprint, "fp-pending");
+    // A forgotten id is a new command now.
+    auto again = tracker->Submit(Command("done-0"), "fp");
+    ASSERT_TRUE(again) << again.error().message;
+    EXPECT_TRUE(again.value().created);
+  }
+  EXPECT_EQ(JournalIds(dir.str()), (std::vector<std::string>{"pending", "done-0"}));
+  auto tracker = MakeRetainingTracker(dir.str(), 1.0, 100);
+  ASSERT_TRUE(tracker);
+  EXPECT_EQ(tracker->stats().replayed_commands, 2);
+  ASSERT_TRUE(tracker->Get("pending"));
+  EXPECT_FALSE(IsTerminal(StateOf(*tracker, "pending")));
+  EXPECT_FALSE(tracker->Get("done-1"));
+}
+
 TEST(CommandTrackerTest, BadOptionsAreErrors) {
   TrackerOptions options;
   options.journal_dir = "";
@@ -316,6 +532,16 @@ TEST(CommandTrackerTest, BadOptionsAreErrors) {
   auto bad_timeout = CommandTracker::Create(options, MakeServiceBridge());
   ASSERT_FALSE(bad_timeout);
   EXPECT_EQ(bad_timeout.error().field, "command_timeout_s");
+  options.command_timeout_s = 1;
+  options.retention_s = -1;
+  auto bad_retention = CommandTracker::Create(options, MakeServiceBridge());
+  ASSERT_FALSE(bad_retention);
+  EXPECT_EQ(bad_retention.error().field, "retention_s");
+  options.retention_s = 1;
+  options.retention_max_commands = -1;
+  auto bad_count = CommandTracker::Create(options, MakeServiceBridge());
+  ASSERT_FALSE(bad_count);
+  EXPECT_EQ(bad_count.error().field, "retention_max_commands");
 }
 
 }  // namespace
