@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds, and runs the whole test suite (unit, integration, contract,
-# fuzz-corpus replay, the page in headless chromium), then a sanitizer build of the HTTP and
-# codec tests.
+# fuzz-corpus replay, the page in headless chromium), then an ASan+UBSan build of the HTTP and
+# codec tests and a ThreadSanitizer build of the server and robot-command tests.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$root/scripts/setup.sh"
@@ -19,4 +19,14 @@ SOFTGRASP_TARGETS="http_message_test http_parser_test http_router_test http_serv
   bash "$root/scripts/build.sh" -DSOFTGRASP_SANITIZER=address,undefined -DSOFTGRASP_BUILD_BENCHMARKS=OFF
 # Tests of targets not built in this pass show up as *_NOT_BUILT: skip them.
 ctest --test-dir "$root/build-asan" -j "$(nproc)" --output-on-failure -L 'http|io|mesh|fuzz|core' \
+  -E 'NOT_BUILT'
+
+# The threaded parts once more under ThreadSanitizer: the HTTP server (I/O thread, workers,
+# hand-backs), static files, and the robot command record (tracker thread, journal, DDS).
+SOFTGRASP_BUILD_DIR="$root/build-tsan" SOFTGRASP_WEB=0 \
+SOFTGRASP_TARGETS="http_server_test http_static_files_test robot_journal_test
+  robot_command_tracker_test" \
+  bash "$root/scripts/build.sh" -DSOFTGRASP_SANITIZER=thread -DSOFTGRASP_BUILD_BENCHMARKS=OFF
+TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$root/tests/tsan.supp" \
+  ctest --test-dir "$root/build-tsan" -j "$(nproc)" --output-on-failure -L 'http|robot' \
   -E 'NOT_BUILT'
