@@ -711,7 +711,12 @@ core::Result<AlphaShapeResult> ReconstructAlphaShape(
       continue;
     }
     TriangleMesh mesh = CanonicalMesh(solid.BoundaryFacets(), points);
-    const MeshReport report = CheckMesh(mesh);
+    // The facets belong to one Delaunay triangulation of the exact input points, so they cannot
+    // cross each other: the (costlier) self-intersection test is left to callers that move the
+    // vertices afterwards (GenerateFractal, after rounding to float32).
+    MeshCheckOptions check_options;
+    check_options.self_intersections = false;
+    const MeshReport report = CheckMesh(mesh, check_options);
     if (!report.ok()) {
       last_reason = "invalid mesh at alpha " + std::to_string(alpha) + ": " +
                     (report.problems.empty() ? std::string() : report.problems.front());

@@ -40,6 +40,10 @@ struct FractalRejections {
   int low_variance = 0;     ///< min axis variance <= sigma (or <= sigma / 2 on a prefix)
   int no_solid = 0;         ///< no valid alpha shape up to the largest raised alpha
   int float_collision = 0;  ///< two mesh vertices became equal when rounded to float32
+  /// After scaling and rounding to float32, two faces cut through each other or a face lost its
+  /// area (MeshReport::self_intersection_free): the rounding moves vertices by up to half a
+  /// float32 step (~2 nm at 2.5 cm), enough to fold a sliver of the solid that is thinner.
+  int self_intersecting = 0;
 };
 
 struct FractalModel {
@@ -70,6 +74,13 @@ struct FractalModel {
 /// The seed of draw `attempt` (1-based): each draw runs its own std::mt19937_64 seeded with
 /// SplitMix64(seed + attempt * 0x9E3779B97F4A7C15), so a draw can be replayed on its own.
 std::uint64_t DrawSeed(std::uint64_t seed, int attempt);
+
+/// Moves the mesh's bounding-box centre to the origin, scales it so the smallest side is just
+/// under `target_m` (1 ppm, so rounding cannot push it over) and rounds every coordinate to
+/// float32, in place: the last geometric step of GenerateFractal. Returns the scale (output units
+/// per input unit), or 0 if the box is flat or two vertices became equal after rounding (the mesh
+/// is then unusable). Does not check the result; GenerateFractal runs CheckMesh on it.
+double ScaleToGripper(TriangleMesh& mesh, double target_m);
 
 /// Checks params against the ranges above: a kInvalidArgument error naming the field at fault,
 /// or nothing when all are valid.

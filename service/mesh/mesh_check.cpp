@@ -1,12 +1,20 @@
-// Mesh validity checks: sorted half-edges for the edge checks, union-find for fans and pieces.
+// Mesh validity checks: sorted half-edges for the edge checks, union-find for fans and pieces,
+// CGAL's Polygon Mesh Processing (exact predicates) for self-intersections.
 #include "service/mesh/mesh_check.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Surface_mesh.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <exception>
+#include <iterator>
 #include <numeric>
 #include <string>
+#include <utility>
 
 namespace softgrasp::mesh {
 namespace {
@@ -55,9 +63,67 @@ void AddProblem(MeshReport& r, int count, const std::string& what, const std::st
   r.problems.push_back(std::move(line));
 }
 
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using SurfaceMesh = CGAL::Surface_mesh<Kernel::Point_3>;
+
+struct SelfIntersections {
+  bool ran = false;
+  std::string failure;                    ///< why it did not run, when it did not
+  std::vector<std::array<int, 2>> pairs;  ///< distinct faces (f < g), sorted
+  std::vector<int> collinear_faces;       ///< sorted
+};
+
+/// Exact self-intersection test of a mesh with valid indices, finite coordinates, no
+/// repeated-vertex faces, consistently oriented and 2-manifold (so it forms a halfedge mesh).
+/// Two faces intersect when their closed triangles share a point that is not on a vertex or edge
+/// both of them use; CGAL filters candidates with bounding boxes and decides each with exact
+/// predicates on the double coordinates, so touching counts and near misses do not.
+SelfIntersections FindSelfIntersections(const TriangleMesh& mesh) {
+  SelfIntersections out;
+  SurfaceMesh sm;
+  sm.reserve(static_cast<SurfaceMesh::size_type>(mesh.vertices.size()),
+             static_cast<SurfaceMesh::size_type>(3 * mesh.faces.size() / 2 + 3),
+             static_cast<SurfaceMesh::size_type>(mesh.faces.size()));
+  std::vector<SurfaceMesh::Vertex_index> ids;
+  ids.reserve(mesh.vertices.size());
+  for (const auto& p : mesh.vertices) ids.push_back(sm.add_vertex({p[0], p[1], p[2]}));
+  for (const auto& t : mesh.faces) {
+    const SurfaceMesh::Face_index f =
+        sm.add_face(ids[static_cast<std::size_t>(t[0])], ids[static_cast<std::size_t>(t[1])],
+                    ids[static_cast<std::size_t>(t[2])]);
+    if (f == SurfaceMesh::null_face()) {
+      out.failure = "the faces do not form a halfedge mesh";
+      return out;
+    }
+  }
+  // Faces are numbered in the order they were added, so a face index is the input face index.
+  std::vector<std::pair<SurfaceMesh::Face_index, SurfaceMesh::Face_index>> found;
+  try {
+    CGAL::Polygon_mesh_processing::self_intersections(sm, std::back_inserter(found));
+  } catch (const std::exception& e) {
+    out.failure = e.what();
+    return out;
+  }
+  for (const auto& [a, b] : found) {
+    const int f = static_cast<int>(a.idx()), g = static_cast<int>(b.idx());
+    if (f == g) {
+      out.collinear_faces.push_back(f);  // CGAL reports a zero-area face as (f, f)
+    } else {
+      out.pairs.push_back({std::min(f, g), std::max(f, g)});
+    }
+  }
+  std::sort(out.pairs.begin(), out.pairs.end());
+  out.pairs.erase(std::unique(out.pairs.begin(), out.pairs.end()), out.pairs.end());
+  std::sort(out.collinear_faces.begin(), out.collinear_faces.end());
+  out.collinear_faces.erase(std::unique(out.collinear_faces.begin(), out.collinear_faces.end()),
+                            out.collinear_faces.end());
+  out.ran = true;
+  return out;
+}
+
 }  // namespace
 
-MeshReport CheckMesh(const TriangleMesh& mesh) {
+MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) {
   MeshReport r;
   const int nv = static_cast<int>(mesh.vertices.size());
   const std::size_t nf = mesh.faces.size();
@@ -230,6 +296,31 @@ MeshReport CheckMesh(const TriangleMesh& mesh) {
                          " is not positive: faces point inward or the mesh is flat");
   }
   r.euler_characteristic = referenced - num_edges + static_cast<int>(nf);
+
+  // Self-intersections need a halfedge mesh: only when the combinatorial checks allow one.
+  // Open meshes (boundary edges) and several pieces are fine for the test itself.
+  if (options.self_intersections && r.num_nonfinite_vertices == 0 && r.num_degenerate_faces == 0 &&
+      r.num_nonmanifold_edges == 0 && r.num_nonmanifold_vertices == 0 &&
+      r.num_misoriented_edges == 0) {
+    const SelfIntersections si = FindSelfIntersections(mesh);
+    if (!si.ran) {
+      r.problems.push_back("the self-intersection test could not run: " + si.failure);
+    } else {
+      r.self_intersections_checked = true;
+      r.num_self_intersecting_pairs = static_cast<int>(si.pairs.size());
+      r.num_collinear_faces = static_cast<int>(si.collinear_faces.size());
+      r.self_intersecting_pairs = si.pairs;
+      r.self_intersection_free = si.pairs.empty() && si.collinear_faces.empty();
+      AddProblem(r, r.num_self_intersecting_pairs,
+                 "pairs of faces that cut through each other: self-intersecting",
+                 si.pairs.empty() ? std::string()
+                                  : "faces " + std::to_string(si.pairs[0][0]) + " and " +
+                                        std::to_string(si.pairs[0][1]));
+      AddProblem(r, r.num_collinear_faces, "faces with three collinear vertices: zero area",
+                 si.collinear_faces.empty() ? std::string()
+                                            : "face " + std::to_string(si.collinear_faces[0]));
+    }
+  }
   return r;
 }
 

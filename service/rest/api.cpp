@@ -307,7 +307,8 @@ json FractalStats(const mesh::FractalModel& m, const FractalRequest& in, double 
         {"diverged", m.rejections.diverged},
         {"low_variance", m.rejections.low_variance},
         {"no_solid", m.rejections.no_solid},
-        {"float_collision", m.rejections.float_collision}}},
+        {"float_collision", m.rejections.float_collision},
+        {"self_intersecting", m.rejections.self_intersecting}}},
       {"milliseconds", milliseconds},
   };
 }

@@ -54,7 +54,9 @@ void BM_FractalModel(benchmark::State& state) {
     draws += model.value().attempts;
     triangulated += model.value().points_triangulated;
     // Draws rejected after their triangulation: the expensive ones.
-    late_rejections += model.value().rejections.no_solid + model.value().rejections.float_collision;
+    late_rejections += model.value().rejections.no_solid +
+                       model.value().rejections.float_collision +
+                       model.value().rejections.self_intersecting;
     raised += model.value().alpha_raised ? 1.0 : 0.0;
     benchmark::DoNotOptimize(model.value().mesh.faces.data());
   }

@@ -31,6 +31,15 @@ inline TriangleMesh MakeTetrahedron() {
   return m;
 }
 
+/// Octahedron with vertices at +-1 on each axis (+x, -x, +y, -y, +z, -z), outward.
+inline TriangleMesh MakeOctahedron() {
+  TriangleMesh m;
+  m.vertices = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  m.faces = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+             {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  return m;
+}
+
 /// Torus around z (radii R > r), n x m quads split in two, outward.
 inline TriangleMesh MakeTorus(double big_r = 2.0, double small_r = 0.5, int n = 16, int m = 8) {
   TriangleMesh t;
