@@ -546,7 +546,7 @@ FastFge::FastFge(const Scene& scene, const Camera& camera, const Gripper& grippe
   // The crop may reach past the image: there the gripper would be blind, so it is an obstacle.
   crop_ = cv::Rect(occupied.x - margin_px_, occupied.y - margin_px_,
                    occupied.width + 2 * margin_px_, occupied.height + 2 * margin_px_);
-  const cv::Mat1f seams = ConservativePool(SeamLevels(scene.height_m, params.seam_step_m), scale_);
+  const cv::Mat1f seams = ConservativePool(SeamLevels(scene.height_m, scene.missing_mask, params.seam_step_m), scale_);
   const cv::Mat1b seam_levels = CropWithBorder(LevelImage(seams, levels), crop_, 0);
   levels_ = PackLevels(CropWithBorder(work_levels, crop_, kOutsideLevel), seam_levels);
 

@@ -357,7 +357,17 @@ std::vector<std::pair<std::size_t, std::size_t>> SliceBatches(std::size_t num_sl
   return batches;
 }
 
-cv::Mat1f SeamLevels(const cv::Mat1f& height_m, double seam_step_m) {
+cv::Mat1f SeamLevels(const cv::Mat1f& height_m_in, const cv::Mat1b& missing,
+                     double seam_step_m) {
+  // Filled-in pixels are no evidence of a surface: as NaN they take part in no pair and are no
+  // flat continuation (sensors drop pixels along object edges, and the fill bridges the step
+  // with runs of in-between heights that would look like a lower surface).
+  cv::Mat1f measured;
+  if (!missing.empty() && cv::countNonZero(missing) > 0) {
+    height_m_in.copyTo(measured);
+    measured.setTo(std::numeric_limits<float>::quiet_NaN(), missing);
+  }
+  const cv::Mat1f& height_m = measured.empty() ? height_m_in : measured;
   const auto step = static_cast<float>(seam_step_m);
   const auto flat = static_cast<float>(seam_step_m * kSeamFlatFraction);
   const float nan = std::numeric_limits<float>::quiet_NaN();

@@ -115,8 +115,9 @@ Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& 
 /// lower pixel continues flat away from the step (next pixel within seam_step_m / 2; this
 /// excludes walls seen edge-on), both pixels get the lower of the two heights (max over their
 /// pairs); 0 elsewhere. A seam whose both sides reach above a level t lies at a pixel iff its
-/// seam level is > t.
-cv::Mat1f SeamLevels(const cv::Mat1f& height_m, double seam_step_m);
+/// seam level is > t. Pixels set in `missing` (filled in, not measured; empty = none) take part
+/// in no pair.
+cv::Mat1f SeamLevels(const cv::Mat1f& height_m, const cv::Mat1b& missing, double seam_step_m);
 
 /// Grasp point: the centre pixel's ray meets the plane `height_m` above the floor.
 std::array<double, 3> PointOnRayAtHeight(const Camera& camera, const Plane& floor, double u_px,

@@ -97,7 +97,8 @@ FgeMaps ComputeFgeMapsReference(const Scene& scene, const Camera& camera, const 
   const cv::Mat1f palm =
       Correlate(Above(height, slice.palm_height_m), k.contact + k.fingers, 1.0f);
   const cv::Mat1f seams = Correlate(
-      Above(GrowByOnePixel(fge_detail::SeamLevels(scene.height_m, params.seam_step_m)),
+      Above(GrowByOnePixel(fge_detail::SeamLevels(scene.height_m, scene.missing_mask,
+                                                  params.seam_step_m)),
             slice.tip_height_m),
       k.contact, 0.0f);
 

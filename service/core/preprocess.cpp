@@ -24,9 +24,14 @@ constexpr int kFillTargetRows = 120;        // inpainting runs at about this man
 constexpr int kMaxFillDownscale = 4;
 constexpr float kInpaintUnitsPerM = 1e4f;   // Telea is tuned for large values: use 0.1 mm units
 constexpr int kSampleTargetRows = 120;      // floor fit samples about this many rows of pixels
-constexpr double kBelowFloorWeight = 2.0;   // RANSAC score = inliers - 2 * points below the plane
+constexpr double kBelowFloorWeight = 10.0;  // RANSAC score = inliers - 10 * points below the plane
+// A best plane with at least this many scored points behind it (and this fraction of them) is
+// searched past: new hypotheses are drawn among the points behind it, at most this many rounds.
+constexpr int kMinBelowToSearchDeeper = 10;
+constexpr double kMinBelowFractionToSearchDeeper = 0.002;
+constexpr int kMaxDeeperRounds = 4;
 constexpr double kMinCameraToFloorM = 0.01; // a "floor" through the camera is degenerate
-constexpr double kMinFloorNormalZ = 0.25;   // floors seen at > ~75 deg from the optical axis: no
+constexpr double kMinFloorNormalZ = 0.5;    // floors seen at > 60 deg from the optical axis: no
 constexpr int kRefineRounds = 2;
 constexpr std::size_t kMaxScoringPoints = 5000;  // RANSAC scores hypotheses on this many points
 
@@ -83,6 +88,7 @@ cv::Mat1f FillMissing(const cv::Mat1f& depth_m, const cv::Mat1b& missing,
 struct SampledPoints {
   std::vector<float> x, y, z;
   std::vector<int> deeper_half;  // indices with depth >= median: where floor samples come from
+  std::vector<int> deepest;      // indices with depth >= the 95th percentile
   std::size_t size() const { return z.size(); }
   Eigen::Vector3d Point(std::size_t i) const { return {x[i], y[i], z[i]}; }
 };
@@ -107,6 +113,11 @@ SampledPoints SamplePoints(const cv::Mat1f& depth_m, const cv::Mat1b& missing,
   std::nth_element(sorted.begin(), mid, sorted.end());
   for (std::size_t i = 0; i < out.z.size(); ++i) {
     if (out.z[i] >= *mid) out.deeper_half.push_back(static_cast<int>(i));
+  }
+  auto p95 = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() * 19 / 20);
+  std::nth_element(sorted.begin(), p95, sorted.end());
+  for (std::size_t i = 0; i < out.z.size(); ++i) {
+    if (out.z[i] >= *p95) out.deepest.push_back(static_cast<int>(i));
   }
   return out;
 }
@@ -166,27 +177,53 @@ std::optional<Plane> PlaneThrough(const SampledPoints& p, int i, int j, int k) {
   return MakePlane((b - a).cross(c - a), a);
 }
 
-// Hypotheses from the deeper half, scored on at most kMaxScoringPoints of all points.
+// Indices of `points` farther than `inlier_m` behind `plane`.
+std::vector<int> PointsBehind(const Plane& plane, const SampledPoints& points, double inlier_m) {
+  const Eigen::Vector3d n(plane.n[0], plane.n[1], plane.n[2]);
+  std::vector<int> out;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (n.dot(points.Point(i)) + plane.d < -inlier_m) out.push_back(static_cast<int>(i));
+  }
+  return out;
+}
+
+// Hypotheses from the deeper half, then from the deepest 5 %, scored on at most
+// kMaxScoringPoints of all points. In a dense bin the floor shows in a few small patches: three
+// points drawn from the deeper half rarely all lie on it, while a plane tilted through the pile
+// collects many inliers. The deepest points are mostly floor. When the best plane still has points
+// behind it, up to kMaxDeeperRounds more rounds draw hypotheses among those points.
 std::optional<Plane> RansacFloor(const SampledPoints& points, const PreprocessParams& params) {
-  const auto& pool = points.deeper_half;
-  if (pool.size() < 3) return std::nullopt;
+  if (points.deeper_half.size() < 3) return std::nullopt;
   const SampledPoints scoring = Thin(points, kMaxScoringPoints);
   std::mt19937 rng(params.ransac_seed);
-  std::uniform_int_distribution<std::size_t> pick(0, pool.size() - 1);
   const auto inlier_m = static_cast<float>(params.floor_inlier_m);
   std::optional<Plane> best;
   PlaneScore best_score;
-  for (int it = 0; it < params.ransac_iterations; ++it) {
-    const std::size_t a = pick(rng), b = pick(rng), c = pick(rng);
-    if (a == b || b == c || a == c) continue;
-    const auto plane = PlaneThrough(points, pool[a], pool[b], pool[c]);
-    if (!plane) continue;
-    const PlaneScore score = ScorePlane(*plane, scoring, inlier_m);
-    if (!best || score.value() > best_score.value() ||
-        (score.value() == best_score.value() && score.inliers > best_score.inliers)) {
-      best = plane;
-      best_score = score;
+  const auto draw_from = [&](const std::vector<int>& pool) {
+    std::uniform_int_distribution<std::size_t> pick(0, pool.size() - 1);
+    for (int it = 0; it < params.ransac_iterations; ++it) {
+      const std::size_t a = pick(rng), b = pick(rng), c = pick(rng);
+      if (a == b || b == c || a == c) continue;
+      const auto plane = PlaneThrough(points, pool[a], pool[b], pool[c]);
+      if (!plane) continue;
+      const PlaneScore score = ScorePlane(*plane, scoring, inlier_m);
+      if (!best || score.value() > best_score.value() ||
+          (score.value() == best_score.value() && score.inliers > best_score.inliers)) {
+        best = plane;
+        best_score = score;
+      }
     }
+  };
+  draw_from(points.deeper_half);
+  if (points.deepest.size() >= 3) draw_from(points.deepest);
+  const auto min_below = std::max<double>(kMinBelowToSearchDeeper,
+                                          kMinBelowFractionToSearchDeeper * scoring.size());
+  for (int round = 0; round < kMaxDeeperRounds && best && best_score.below >= min_below; ++round) {
+    const std::vector<int> behind = PointsBehind(*best, points, inlier_m);
+    if (behind.size() < 3) break;
+    const PlaneScore before = best_score;
+    draw_from(behind);
+    if (best_score.value() <= before.value()) break;  // nothing better behind it
   }
   if (!best || best_score.inliers < 3) return std::nullopt;
   return best;

@@ -128,6 +128,9 @@ core::Result<std::filesystem::path> GenerateDataset(const DatasetParams& params,
       {"support", SupportToJson(spec.support)},
       {"noise", spec.render.noise.enabled},
       {"fractal_probability", spec.fractal_probability},
+      // Everything a scene is rebuilt from (camera pose and intrinsics included), so a tool can
+      // regenerate any scene from its seed exactly as `generate` made it.
+      {"spec", SceneSpecToJson(spec)},
       {"entries", scenes},
   };
   const std::filesystem::path index_path = params.out_dir / "index.json";

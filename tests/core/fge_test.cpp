@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "service/core/fge_geometry.h"
+#include "service/core/preprocess.h"
 #include "tests/support/grasp_footprint.h"
 #include "tests/support/synthetic_scene.h"
 
@@ -408,6 +410,39 @@ TEST(DetectGraspsFge, BoxAgainstAWallIsGraspedByItsOwnTopFace) {
     against |= id == 2;
   }
   EXPECT_TRUE(against);
+}
+
+// Structured-light and stereo sensors drop pixels along object edges; the fill bridges the
+// step with runs of in-between heights, which look like a lower surface pressed against the box.
+// They are no surface: no seam may come of them, and the box stays graspable.
+TEST(DetectGraspsFge, FilledDropoutsAlongAnEdgeAreNoSeam) {
+  SceneSpec spec;
+  const Box box{0.0, 0.0, 0.030, 0.080, 0.040, 0.0, 1};
+  spec.boxes = {box};
+  testing::SyntheticScene synth = RenderScene(spec);
+  // Missing: the table pixels within kBandPx of the box along each row (both long sides).
+  constexpr int kBandPx = 8;
+  const cv::Mat1b on_box = synth.object_id == box.id;
+  cv::Mat1b band;
+  cv::dilate(on_box, band, cv::Mat1b::ones(1, 2 * kBandPx + 1));
+  band &= (synth.object_id == testing::kTableId);
+  synth.depth.depth_m.setTo(std::numeric_limits<float>::quiet_NaN(), band);
+  ASSERT_GT(cv::countNonZero(band), 0);
+
+  auto scene = Preprocess(synth.depth, synth.camera);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  const Scene& s = scene.value();
+  const double tip_m = box.height_m - 0.01 - FgeParams{}.grip_depth_m;  // the top slice's tips
+  // Measured pixels only: no seam reaches above the fingertips. Counting the filled ones, the
+  // runs of in-between heights beside the box would make seams (the failure this guards).
+  const cv::Mat1f with_fill = fge_detail::SeamLevels(s.height_m, cv::Mat1b(), 0.01);
+  const cv::Mat1f measured = fge_detail::SeamLevels(s.height_m, s.missing_mask, 0.01);
+  EXPECT_GT(cv::countNonZero(with_fill > tip_m), 0) << "the fill made no step: the test is moot";
+  EXPECT_EQ(cv::countNonZero(measured > tip_m), 0);
+
+  const auto grasps = DetectGraspsFge(s, synth.camera, Gripper{});
+  ASSERT_FALSE(grasps.empty());
+  EXPECT_LE(AngleDistance(grasps.front().angle_rad, box.yaw_rad), kAngleStepRad + 1e-9);
 }
 
 TEST(DetectGraspsFge, FlatTableHasNoGrasp) {

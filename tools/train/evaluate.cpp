@@ -128,7 +128,10 @@ cv::Mat1f HeuristicStiffness(const core::Scene& scene, const core::Camera& camer
 
 namespace {
 
+/// The scene spec a dataset was generated with: the full spec when index.json has it (camera
+/// included), else the fields older indexes held (the default camera).
 core::Result<sim::SceneSpec> SpecFromIndex(const json& index) {
+  if (index.contains("spec")) return sim::SceneSpecFromJson(index.at("spec"));
   sim::SceneSpec spec;
   try {
     spec.split = index.at("split").get<std::string>() == "val" ? sim::ShapeSplit::kVal
