@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # softgrasp-server's HTTP layer against nginx (one worker process), in the same run on the same
 # machine, both on loopback: small-request throughput (wrk, keep-alive, GET /healthz) and the
-# latency of a health check while 1,000 slow clients hold sockets open (tests/bench/
-# http_slow_clients). Prints one JSON object; docs/performance.md has the figures.
+# latency of a health check while 1,000 slow and 1,000 idle clients hold sockets open
+# (tests/bench/http_slow_clients). Prints one JSON object; docs/performance.md has the figures.
 #
 #   bash scripts/bench-http.sh [--quick] [--build-dir DIR] [--rounds N] [--seconds S]
 #
-# --quick: one short round and 200 slow clients (the CTest smoke run, label "bench").
+# --quick: one short round and 200 slow and 200 idle clients (the CTest smoke run, label "bench").
 # Needs nginx-light and wrk (scripts/setup.sh installs them) and a build (scripts/build.sh).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -14,11 +14,12 @@ build="${SOFTGRASP_BUILD_DIR:-$root/build}"
 rounds=3
 seconds=5
 slow=1000
+idle=1000
 slow_seconds=5
 connections=32
 while [ $# -gt 0 ]; do
   case "$1" in
-    --quick) rounds=1; seconds=1; slow=200; slow_seconds=2; shift ;;
+    --quick) rounds=1; seconds=1; slow=200; idle=200; slow_seconds=2; shift ;;
     --build-dir) build="$2"; shift 2 ;;
     --rounds) rounds="$2"; shift 2 ;;
     --seconds) seconds="$2"; shift 2 ;;
@@ -120,7 +121,8 @@ nginx_nolog_rps="$(median <"$work/rps-nginx-nolog")"
 
 slow_run() {
   # Exits 1 when a probe failed; the JSON says how many, and the check at the end decides.
-  "$slow_bin" --port "$1" --slow "$slow" --seconds "$slow_seconds" --probe-interval-ms 100 || true
+  "$slow_bin" --port "$1" --slow "$slow" --idle "$idle" --seconds "$slow_seconds" \
+    --probe-interval-ms 100 || true
 }
 slow_nginx="$(slow_run "$nginx_port")"
 slow_sg="$(slow_run "$sg_port")"

@@ -3,11 +3,13 @@
 // compare softgrasp-server with nginx in the same run (docs/performance.md).
 //
 //   http_slow_clients --port P [--host 127.0.0.1] [--path /healthz] [--slow 1000]
-//                     [--seconds 5] [--probe-interval-ms 100] [--line-interval-ms 1000]
+//                     [--idle 0] [--seconds 5] [--probe-interval-ms 100]
+//                     [--line-interval-ms 1000]
 //
 // Each slow client sends a request line, then one more header line every --line-interval-ms
 // (staggered across clients), and never ends its header block: the classic "slowloris" pattern.
 // Slow clients that get any answer or are closed by the server are counted as `slow_answered`.
+// Idle clients connect and send nothing.
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -36,6 +38,7 @@ struct Options {
   int port = 0;
   std::string path = "/healthz";
   int slow = 1000;
+  int idle = 0;
   double seconds = 5.0;
   int probe_interval_ms = 100;
   int line_interval_ms = 1000;
@@ -44,7 +47,8 @@ struct Options {
 [[noreturn]] void Usage(const char* message) {
   std::fprintf(stderr,
                "http_slow_clients: %s\nusage: http_slow_clients --port P [--host H] [--path P] "
-               "[--slow N] [--seconds S] [--probe-interval-ms MS] [--line-interval-ms MS]\n",
+               "[--slow N] [--idle N] [--seconds S] [--probe-interval-ms MS] "
+               "[--line-interval-ms MS]\n",
                message);
   std::exit(2);
 }
@@ -63,6 +67,8 @@ Options Parse(int argc, char** argv) {
       o.path = value;
     } else if (flag == "--slow") {
       o.slow = std::atoi(value);
+    } else if (flag == "--idle") {
+      o.idle = std::atoi(value);
     } else if (flag == "--seconds") {
       o.seconds = std::atof(value);
     } else if (flag == "--probe-interval-ms") {
@@ -75,6 +81,7 @@ Options Parse(int argc, char** argv) {
   }
   if (o.port <= 0 || o.port > 65535) Usage("--port must be in [1, 65535]");
   if (o.slow < 0 || o.slow > 100000) Usage("--slow must be in [0, 100000]");
+  if (o.idle < 0 || o.idle > 100000) Usage("--idle must be in [0, 100000]");
   if (!(o.seconds > 0 && o.seconds <= 3600)) Usage("--seconds must be in (0, 3600]");
   if (o.probe_interval_ms < 1 || o.line_interval_ms < 1) Usage("intervals must be >= 1 ms");
   return o;
@@ -175,6 +182,16 @@ int main(int argc, char** argv) {
     slow.push_back(s);
   }
 
+  std::vector<int> idle;
+  for (int i = 0; i < o.idle; ++i) {
+    const int fd = Connect(o);
+    if (fd < 0) {
+      ++connect_failures;
+    } else {
+      idle.push_back(fd);
+    }
+  }
+
   std::vector<double> latencies_ms;
   int probe_failures = 0;
   int lines_sent = 0;
@@ -209,12 +226,14 @@ int main(int argc, char** argv) {
     if (slow[i].answered || fds[i].revents != 0) ++slow_answered;
     ::close(slow[i].fd);
   }
+  for (const int fd : idle) ::close(fd);
 
   std::printf(
-      "{\"slow_clients\": %d, \"slow_connect_failures\": %d, \"slow_answered\": %d, "
+      "{\"slow_clients\": %d, \"idle_clients\": %zu, \"connect_failures\": %d, "
+      "\"slow_answered\": %d, "
       "\"header_lines_sent\": %d, \"probes_ok\": %zu, \"probes_failed\": %d, "
       "\"probe_ms\": {\"p50\": %.3f, \"p99\": %.3f, \"max\": %.3f}}\n",
-      static_cast<int>(slow.size()), connect_failures, slow_answered, lines_sent,
+      static_cast<int>(slow.size()), idle.size(), connect_failures, slow_answered, lines_sent,
       latencies_ms.size(), probe_failures, Percentile(latencies_ms, 0.5),
       Percentile(latencies_ms, 0.99),
       latencies_ms.empty() ? 0.0 : *std::max_element(latencies_ms.begin(), latencies_ms.end()));

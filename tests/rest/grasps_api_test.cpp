@@ -1,5 +1,6 @@
 // POST /v1/grasps end to end: real server, real socket, real depth files.
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -118,11 +119,31 @@ TEST_F(GraspsApiTest, Png16InMillimetresGivesTheSameGraspsAsNpy) {
   const auto reply_npy = server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", npy));
   ASSERT_EQ(reply_png.status, 200) << reply_png.body;
   ASSERT_EQ(reply_npy.status, 200) << reply_npy.body;
-  const json a = json::parse(reply_png.body)["grasps"][0];
-  const json b = json::parse(reply_npy.body)["grasps"][0];
   EXPECT_EQ(json::parse(reply_png.body)["image"]["format"], "png16");
-  EXPECT_NEAR(a["center_px"]["u"].get<double>(), b["center_px"]["u"].get<double>(), 3.0);
-  EXPECT_NEAR(a["center_px"]["v"].get<double>(), b["center_px"]["v"].get<double>(), 3.0);
+  // Millimetre rounding moves the fitted floor by ~1e-5 and with it the surface a slice cuts; on
+  // this bar grasps one angle step apart nearly tie (scores within 10 %). So each answer's best
+  // grasp is one of the other's near-best: at the same place, at most one angle step apart.
+  const json png = json::parse(reply_png.body)["grasps"];
+  const json npy_grasps = json::parse(reply_npy.body)["grasps"];
+  ASSERT_FALSE(png.empty());
+  ASSERT_FALSE(npy_grasps.empty());
+  const auto best_is_among_near_best = [](const json& best, const json& others) {
+    const double best_other = others[0]["score"].get<double>();
+    for (const json& g : others) {
+      if (g["score"].get<double>() < 0.9 * best_other) break;
+      const double angle_step = std::numbers::pi / 16;  // FgeParams{}.num_angles = 16
+      const double turn = std::fmod(
+          std::abs(g["angle_rad"].get<double>() - best["angle_rad"].get<double>()), std::numbers::pi);
+      if (std::abs(g["center_px"]["u"].get<double>() - best["center_px"]["u"].get<double>()) <= 3.0 &&
+          std::abs(g["center_px"]["v"].get<double>() - best["center_px"]["v"].get<double>()) <= 3.0 &&
+          std::min(turn, std::numbers::pi - turn) <= angle_step + 1e-9) {
+        return true;
+      }
+    }
+    return false;
+  };
+  EXPECT_TRUE(best_is_among_near_best(png[0], npy_grasps)) << png.dump() << "\n" << npy_grasps.dump();
+  EXPECT_TRUE(best_is_among_near_best(npy_grasps[0], png)) << png.dump() << "\n" << npy_grasps.dump();
 }
 
 TEST_F(GraspsApiTest, OverlayPngHasTheImageSize) {
