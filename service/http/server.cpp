@@ -345,6 +345,8 @@ struct Server::Impl {
   void Log(const std::string& request_id, std::string_view method, std::string_view path,
            int status, std::size_t body_bytes, Clock::time_point start);
   void FlushIoLog();
+  /// "<ISO time> <request id> <method> <path> handler failed: <message>" to the error log.
+  void LogError(const Request& request, std::string_view what);
 
   ServerOptions options;
   std::function<Response(Request&)> handler;
@@ -943,9 +945,31 @@ Response Server::Impl::CallHandler(Request& request) {
                                                 std::to_string(response.status));
     }
     return response;
+  } catch (const std::exception& e) {
+    // Deliberately not echoing what() to the client: it may carry internals. The log has it.
+    LogError(request, e.what());
   } catch (...) {
-    // Deliberately not echoing what() to the client: it may carry internals.
-    return ErrorResponse(500, "internal", "internal server error");
+    LogError(request, "an exception that is not a std::exception");
+  }
+  return ErrorResponse(500, "internal", "internal server error");
+}
+
+void Server::Impl::LogError(const Request& request, std::string_view what) {
+  std::string line = IsoTime(std::chrono::system_clock::now()) + " " +
+                     LogField(request.request_id) + " " + LogField(request.method) + " " +
+                     LogField(request.path) + " handler failed: ";
+  // One line whatever the message holds.
+  for (const char c : what) line.push_back(c == '\n' || c == '\r' ? ' ' : c);
+  std::lock_guard<std::mutex> lock(log_mu);
+  try {
+    if (options.error_log) {
+      options.error_log(line);
+    } else {
+      line.push_back('\n');
+      std::fwrite(line.data(), 1, line.size(), stderr);
+    }
+  } catch (...) {
+    // A failing log sink must not take the server down.
   }
 }
 

@@ -36,6 +36,9 @@ struct ServerOptions {
   /// Receives one access-log line per answered request:
   /// "<ISO time> <request id> <method> <path> <status> <body bytes> <ms>ms". Default: stderr.
   std::function<void(const std::string&)> access_log;
+  /// Receives one line per exception that escaped the handler (the client gets a plain 500):
+  /// "<ISO time> <request id> <method> <path> handler failed: <message>". Default: stderr.
+  std::function<void(const std::string&)> error_log;
 };
 
 /// Raises this process's soft limit on open descriptors to at least `wanted` where the hard limit
@@ -46,7 +49,7 @@ std::size_t RaiseOpenFileLimit(std::size_t wanted);
 class Server {
  public:
   /// `handler` is called on worker threads, concurrently. Anything it throws becomes a 500 JSON
-  /// error; the process never dies of a request.
+  /// error and a line in the error log; the process never dies of a request.
   Server(ServerOptions options, std::function<Response(Request&)> handler);
   ~Server();  ///< Stop()s if still running
   Server(const Server&) = delete;

@@ -309,14 +309,23 @@ TEST_F(HttpServer, PipelinedRequestsAreAnsweredInOrder) {
 }
 
 TEST_F(HttpServer, HandlerExceptionIs500AndServingGoesOn) {
-  auto server = StartServer(Options());
+  ServerOptions options = Options();
+  LogSink errors;
+  options.error_log = errors.Callback();
+  auto server = StartServer(options);
   Client client(server->port());
-  client.Send(Get("/boom"));
+  client.Send(Get("/boom", "X-Request-Id: boom-1\r\n"));
   const auto failed = client.Read();
   ASSERT_TRUE(failed.has_value());
   EXPECT_EQ(failed->status, 500);
   EXPECT_EQ(failed->json()["error"]["code"], "internal");
   EXPECT_EQ(failed->body.find("secret"), std::string::npos);
+  // The message stays out of the answer but is in the error log, with the request id.
+  const auto error_lines = errors.WaitFor(1);
+  ASSERT_EQ(error_lines.size(), 1u);
+  EXPECT_NE(error_lines[0].find(" boom-1 GET /boom handler failed: secret internals"),
+            std::string::npos)
+      << error_lines[0];
   client.Send(Get("/after"));
   const auto after = client.Read();
   ASSERT_TRUE(after.has_value());
