@@ -12,10 +12,11 @@ ctest --test-dir "${SOFTGRASP_BUILD_DIR:-$root/build}" -j "$(nproc)" --output-on
 # once more under AddressSanitizer + UBSan: their unit tests and the fuzz-corpus replays; and the
 # grasp planners (the fast FGE's buffer and index arithmetic).
 SOFTGRASP_BUILD_DIR="$root/build-asan" SOFTGRASP_WEB=0 \
-SOFTGRASP_TARGETS="http_message_test http_parser_test http_router_test http_server_test
+SOFTGRASP_TARGETS="http_message_test http_parser_test http_response_writer_test
+  http_router_test http_server_test
   http_static_files_test io_npy_test io_png_tiff_test io_mask_test io_intrinsics_test
   io_fuzz_corpus_test mesh_io_test http_request_replay depth_decode_replay mask_decode_replay
-  mesh_decode_replay
+  mesh_decode_replay response_writer_replay
   preprocess_test fge_test fge_stiffness_test" \
   bash "$root/scripts/build.sh" -DSOFTGRASP_SANITIZER=address,undefined -DSOFTGRASP_BUILD_BENCHMARKS=OFF
 # Tests of targets not built in this pass show up as *_NOT_BUILT: skip them.

@@ -31,6 +31,8 @@
 #include <utility>
 #include <vector>
 
+#include "service/http/response_writer.h"
+
 // Threads: one I/O thread owns the listening socket and every connection that is not being served;
 // it accepts, reads, parses, answers protocol errors itself and queues complete requests. A
 // fixed pool of workers runs the handler, writes the response on the socket and hands the
@@ -57,32 +59,6 @@ constexpr std::uint64_t kWakeId = 0;
 constexpr std::uint64_t kListenId = 1;
 constexpr std::uint64_t kFirstConnectionId = 2;
 constexpr std::size_t kMaxClientRequestId = 64;
-
-char ToLowerAscii(char c) { return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c; }
-
-bool EqualsIgnoreCase(std::string_view a, std::string_view b) {
-  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
-           return ToLowerAscii(x) == ToLowerAscii(y);
-         });
-}
-
-/// Header fields the server writes itself; a handler's copies are dropped.
-bool IsServerOwnedHeader(std::string_view name) {
-  for (const char* owned :
-       {"Content-Length", "Transfer-Encoding", "Connection", "Date", "X-Request-Id"}) {
-    if (EqualsIgnoreCase(name, owned)) return true;
-  }
-  return false;
-}
-
-/// A handler header that could break the response framing (CR, LF, NUL, or a bad name) is dropped.
-bool IsSafeHeader(std::string_view name, std::string_view value) {
-  const auto is_bad_name_char = [](char c) {
-    return static_cast<unsigned char>(c) <= 0x20 || c == ':' || c == 0x7f;
-  };
-  return !name.empty() && std::none_of(name.begin(), name.end(), is_bad_name_char) &&
-         value.find_first_of(std::string_view("\r\n\0", 3)) == std::string_view::npos;
-}
 
 bool IsPrintableId(std::string_view id) {
   return !id.empty() && id.size() <= kMaxClientRequestId &&
@@ -111,27 +87,6 @@ std::tm UtcTm(std::chrono::system_clock::time_point t) {
   std::tm tm{};
   gmtime_r(&secs, &tm);
   return tm;
-}
-
-/// IMF-fixdate for the Date header, e.g. "Sun, 06 Nov 1994 08:49:37 GMT". Formatted once per
-/// second per thread: every answer needs it.
-std::string HttpDate(std::chrono::system_clock::time_point t) {
-  static constexpr const char* kDays[] = {"Sun", "Mon", "Tue", "Wed", "Thu", "Fri", "Sat"};
-  static constexpr const char* kMonths[] = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
-                                            "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
-  thread_local std::time_t cached_secs = -1;
-  thread_local std::string cached;
-  const std::time_t secs = std::chrono::system_clock::to_time_t(t);
-  if (secs != cached_secs) {
-    const std::tm tm = UtcTm(t);
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%s, %02d %s %04d %02d:%02d:%02d GMT", kDays[tm.tm_wday % 7],
-                  tm.tm_mday, kMonths[tm.tm_mon % 12], tm.tm_year + 1900, tm.tm_hour, tm.tm_min,
-                  tm.tm_sec);
-    cached = buf;
-    cached_secs = secs;
-  }
-  return cached;
 }
 
 /// ISO-8601 UTC with milliseconds, e.g. "2024-05-01T12:34:56.789Z". The part up to the seconds
@@ -168,30 +123,6 @@ const char* ErrorCodeFor(int status) {
     case 505: return "http_version_not_supported";
     default: return "internal";
   }
-}
-
-/// Whether a response with this status carries no body (and so no Content-Length either, except
-/// for 304 where it would describe the 200 and we have none to give).
-bool StatusHasNoBody(int status) { return status < 200 || status == 204 || status == 304; }
-
-/// Status line, the handler's headers, the server's headers, and the body unless `head`.
-/// `*body_bytes` receives the number of body bytes included.
-std::string SerializeResponse(const Response& response, const std::string& request_id,
-                              bool keep_alive, bool head, std::size_t* body_bytes) {
-  std::string out = "HTTP/1.1 " + std::to_string(response.status) + " " +
-                    ReasonPhrase(response.status) + "\r\n";
-  for (const auto& [name, value] : response.headers) {
-    if (IsServerOwnedHeader(name) || !IsSafeHeader(name, value)) continue;
-    out += name + ": " + value + "\r\n";
-  }
-  const bool no_body = StatusHasNoBody(response.status);
-  if (!no_body) out += "Content-Length: " + std::to_string(response.body.size()) + "\r\n";
-  out += "Date: " + HttpDate(std::chrono::system_clock::now()) + "\r\n";
-  out += keep_alive ? "Connection: keep-alive\r\n" : "Connection: close\r\n";
-  out += "X-Request-Id: " + request_id + "\r\n\r\n";
-  *body_bytes = (no_body || head) ? 0 : response.body.size();
-  out.append(response.body, 0, *body_bytes);
-  return out;
 }
 
 /// Blocking-style send on a non-blocking socket, waiting for writability up to `timeout_ms`.
@@ -818,8 +749,8 @@ void Server::Impl::AnswerInline(Connection& c, WorkItem& item) {
     return;
   }
   std::size_t body_bytes = 0;
-  c.out += SerializeResponse(response, item.request.request_id, true,
-                             item.request.method == "HEAD", &body_bytes);
+  c.out += SerializeResponse(
+      response, {item.request.request_id, true, item.request.method == "HEAD"}, &body_bytes);
   Log(item.request.request_id, item.request.method, item.request.path, response.status,
       body_bytes, item.start);
   if (!FlushOut(c)) return;
@@ -833,7 +764,7 @@ void Server::Impl::SendFinal(Connection& c, Response response, const std::string
                              std::string_view method, std::string_view path,
                              Clock::time_point start) {
   std::size_t body_bytes = 0;
-  c.out += SerializeResponse(response, request_id, false, method == "HEAD", &body_bytes);
+  c.out += SerializeResponse(response, {request_id, false, method == "HEAD"}, &body_bytes);
   Log(request_id, method, path, response.status, body_bytes, start);
   c.phase = Connection::Phase::kClosing;
   c.deadline = Clock::now() + milliseconds(kFlushTimeoutMs);
@@ -919,8 +850,8 @@ void Server::Impl::Serve(WorkItem& item) {
     Response response = CallHandler(item.request);
     const bool keep_open = item.keep_alive && !stopping.load();
     std::size_t body_bytes = 0;
-    const std::string bytes = SerializeResponse(response, item.request.request_id, keep_open,
-                                                item.request.method == "HEAD", &body_bytes);
+    const std::string bytes = SerializeResponse(
+        response, {item.request.request_id, keep_open, item.request.method == "HEAD"}, &body_bytes);
     back.write_ok = SendAll(item.fd, bytes, std::max(options.body_timeout_ms, kMinWriteTimeoutMs));
     back.keep_open = keep_open && back.write_ok;
     Log(item.request.request_id, item.request.method, item.request.path, response.status,
