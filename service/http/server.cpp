@@ -278,6 +278,8 @@ struct Server::Impl {
   void FlushIoLog();
   /// "<ISO time> <request id> <method> <path> handler failed: <message>" to the error log.
   void LogError(const Request& request, std::string_view what);
+  /// One line to `sink`, or to stderr when it is empty; a throwing sink is ignored.
+  void WriteLogLine(const std::function<void(const std::string&)>& sink, std::string line);
 
   ServerOptions options;
   std::function<Response(Request&)> handler;
@@ -891,10 +893,15 @@ void Server::Impl::LogError(const Request& request, std::string_view what) {
                      LogField(request.path) + " handler failed: ";
   // One line whatever the message holds.
   for (const char c : what) line.push_back(c == '\n' || c == '\r' ? ' ' : c);
-  std::lock_guard<std::mutex> lock(log_mu);
+  WriteLogLine(options.error_log, std::move(line));
+}
+
+void Server::Impl::WriteLogLine(const std::function<void(const std::string&)>& sink,
+                                std::string line) {
+  std::lock_guard<std::mutex> lock(log_mu);  // the sink need not be thread-safe
   try {
-    if (options.error_log) {
-      options.error_log(line);
+    if (sink) {
+      sink(line);
     } else {
       line.push_back('\n');
       std::fwrite(line.data(), 1, line.size(), stderr);
@@ -939,17 +946,7 @@ void Server::Impl::Log(const std::string& request_id, std::string_view method,
     io_log += '\n';
     return;
   }
-  std::lock_guard<std::mutex> lock(log_mu);  // the sink need not be thread-safe
-  try {
-    if (options.access_log) {
-      options.access_log(line);
-    } else {
-      line.push_back('\n');
-      std::fwrite(line.data(), 1, line.size(), stderr);
-    }
-  } catch (...) {
-    // A failing log sink must not take the server down.
-  }
+  WriteLogLine(options.access_log, std::move(line));
 }
 
 void Server::Impl::FlushIoLog() {
