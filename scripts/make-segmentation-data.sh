@@ -1,17 +1,15 @@
 #!/usr/bin/env bash
 # Generates the simulated training and validation sets of the segmentation model
 # (models/segmentation.md): bins of 3-8 objects and dense bins of 15-30 whose piles reach the
-# walls, tables with a few objects, three cameras (SR305-like at 0.32 and 0.55 m, Primesense at
-# 0.70-0.80 m, PhoXi at 0.75 m). Validation uses shapes never seen in training (--split val).
-# Usage: scripts/make-segmentation-data.sh OUT_DIR   (about 40 min on 2 cores; runs 2 at a time)
+# walls, tables with a few objects, two cameras (SR305-like at 0.32 and 0.55 m, Primesense at
+# 0.70-0.80 m). Validation uses shapes never seen in training (--split val).
+# Usage: scripts/make-segmentation-data.sh OUT_DIR   (about 25 min on 2 cores; runs 2 at a time)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="${1:?usage: make-segmentation-data.sh OUT_DIR}"
 sim="${SOFTGRASP_SIM:-$root/build/sim/softgrasp-sim}"
 prime="$root/tests/data/gqcnn/primesense.intr"
-phoxi="$root/tests/data/gqcnn/phoxi.intr"
 [ -f "$prime" ] || prime="$root/../shared/data/gqcnn/primesense/primesense.intr"
-[ -f "$phoxi" ] || phoxi="$root/../shared/data/gqcnn/phoxi/phoxi.intr"
 
 gen() {  # NAME ARGS...: one set, skipped when it is already complete
   local name="$1"; shift
@@ -29,7 +27,6 @@ train_a() {
 }
 train_b() {
   gen train-dense    --scenes 300 --seed 102 --objects 15-30
-  gen train-dense-far --scenes 150 --seed 106 --objects 15-30 --camera-height 0.75 --intrinsics "$phoxi"
   gen val-dense      --scenes 50  --seed 202 --objects 15-30 --split val
 }
 mkdir -p "$out"

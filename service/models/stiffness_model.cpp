@@ -9,16 +9,16 @@
 
 namespace softgrasp::models {
 
-cv::Mat1f MakeModelInput(const core::Scene& scene, int side) {
+cv::Mat1f MakeModelInput(const core::Scene& scene, cv::Size size) {
   cv::Mat1f resized;
-  cv::resize(scene.height_m, resized, cv::Size(side, side), 0, 0, cv::INTER_AREA);
-  cv::Mat1f out(side, side);
+  cv::resize(scene.height_m, resized, size, 0, 0, cv::INTER_AREA);
+  cv::Mat1f out(size);
   const float scale = static_cast<float>(2.0 / kInputHeightRangeM);
   const float range = static_cast<float>(kInputHeightRangeM);
-  for (int r = 0; r < side; ++r) {
+  for (int r = 0; r < size.height; ++r) {
     const float* src = resized.ptr<float>(r);
     float* dst = out.ptr<float>(r);
-    for (int c = 0; c < side; ++c) {
+    for (int c = 0; c < size.width; ++c) {
       // NaN (no floor intersection) counts as floor level.
       const float h = std::isfinite(src[c]) ? std::clamp(src[c], 0.0f, range) : 0.0f;
       dst[c] = h * scale - 1.0f;

@@ -23,8 +23,12 @@ namespace softgrasp::models {
 inline constexpr double kInputHeightRangeM = 0.30;
 
 /// The network input for one preprocessed scene: heights resized (stretched, INTER_AREA) to
-/// side x side and normalised as above. Returns a side x side CV_32F image in [-1, 1].
-cv::Mat1f MakeModelInput(const core::Scene& scene, int side);
+/// `size` and normalised as above. Returns a CV_32F image of that size in [-1, 1].
+cv::Mat1f MakeModelInput(const core::Scene& scene, cv::Size size);
+/// The same, square (side x side).
+inline cv::Mat1f MakeModelInput(const core::Scene& scene, int side) {
+  return MakeModelInput(scene, cv::Size(side, side));
+}
 
 /// Output pixels below this are background (0): stiffness levels are 0.1 ... 1.0 and background
 /// is 0, so half the softest level separates them (the thesis' "pre-processed" map S_pre).

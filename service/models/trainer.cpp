@@ -10,6 +10,8 @@
 #include <random>
 #include <sstream>
 
+#include "service/models/loss_plot.h"
+#include "service/models/seed_mix.h"
 #include "service/models/stiffness_model.h"
 
 namespace softgrasp::models {
@@ -32,21 +34,13 @@ struct TrainState {
         opt_d(discriminator->parameters(), torch::optim::AdamOptions(lr).betas({0.5, 0.999})) {}
 };
 
-std::uint64_t Mix(std::uint64_t a, std::uint64_t b) {
-  // SplitMix64 finaliser of a combined word: distinct, well-spread streams per (seed, step).
-  std::uint64_t z = a * 0x9E3779B97F4A7C15ull + b + 0x632BE59BD9B4E019ull;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-
 /// Batch `step` (1-based): indices and flips from a stream of (seed, step).
 void MakeBatch(const TrainingSet& set, int batch, std::uint64_t seed, int step, torch::Tensor* x,
                torch::Tensor* y) {
   const int side = set.side;
   *x = torch::empty({batch, 1, side, side}, torch::kFloat32);
   *y = torch::empty({batch, 1, side, side}, torch::kFloat32);
-  std::mt19937_64 rng(Mix(seed, static_cast<std::uint64_t>(step)));
+  std::mt19937_64 rng(MixSeed(seed, static_cast<std::uint64_t>(step)));
   std::uniform_int_distribution<int> pick(0, set.size() - 1);
   for (int b = 0; b < batch; ++b) {
     const int i = pick(rng);
@@ -204,7 +198,7 @@ core::Result<TrainReport> Train(const TrainOptions& options, const TrainingSet& 
                                 const TrainProgress& progress) {
   if (auto error = CheckOptions(options, set)) return *error;
   const auto t0 = std::chrono::steady_clock::now();
-  torch::manual_seed(Mix(options.seed, 0));
+  torch::manual_seed(MixSeed(options.seed, 0));
   TrainState s(options.network, options.learning_rate);
   InitWeights(*s.generator);
   InitWeights(*s.discriminator);
@@ -234,7 +228,7 @@ core::Result<TrainReport> Train(const TrainOptions& options, const TrainingSet& 
     torch::Tensor x;
     torch::Tensor y;
     MakeBatch(set, options.batch, options.seed, step, &x, &y);
-    torch::manual_seed(Mix(options.seed, 0x5EED0000ull + static_cast<std::uint64_t>(step)));
+    torch::manual_seed(MixSeed(options.seed, 0x5EED0000ull + static_cast<std::uint64_t>(step)));
     SetLearningRate(s.opt_g, LearningRate(options, step));
     SetLearningRate(s.opt_d, LearningRate(options, step));
 
@@ -296,69 +290,17 @@ void WriteLossCurve(const std::vector<LossRecord>& history, double lambda_l1,
       out << r.step << ',' << r.d_loss << ',' << r.g_gan << ',' << r.g_l1 << '\n';
     }
   }
-  if (history.empty()) return;
-  // Smoothed curves (moving average over ~1 % of the steps) on a linear axis.
-  const int n = static_cast<int>(history.size());
-  const int window = std::max(1, n / 100);
-  struct Series {
-    std::vector<double> v;
-    cv::Scalar colour;
-    std::string name;
-  };
-  std::vector<Series> series = {
-      {{}, {200, 60, 20}, "lambda*L1"}, {{}, {30, 30, 220}, "G GAN"}, {{}, {40, 160, 40}, "D"}};
-  for (int i = 0; i < n; ++i) {
-    double a = 0, b = 0, c = 0;
-    const int lo = std::max(0, i - window + 1);
-    for (int k = lo; k <= i; ++k) {
-      a += lambda_l1 * history[static_cast<std::size_t>(k)].g_l1;
-      b += history[static_cast<std::size_t>(k)].g_gan;
-      c += history[static_cast<std::size_t>(k)].d_loss;
-    }
-    const double m = i - lo + 1;
-    series[0].v.push_back(a / m);
-    series[1].v.push_back(b / m);
-    series[2].v.push_back(c / m);
+  std::vector<int> steps;
+  std::vector<LossSeries> series = {{"lambda*L1", {200, 60, 20}, {}},
+                                    {"G GAN", {30, 30, 220}, {}},
+                                    {"D", {40, 160, 40}, {}}};
+  for (const LossRecord& r : history) {
+    steps.push_back(r.step);
+    series[0].values.push_back(lambda_l1 * r.g_l1);
+    series[1].values.push_back(r.g_gan);
+    series[2].values.push_back(r.d_loss);
   }
-  double y_max = 0;
-  for (const auto& s : series) {
-    for (double v : s.v) y_max = std::max(y_max, v);
-  }
-  y_max = std::max(y_max * 1.05, 1e-6);
-  const int w = 800, h = 500, left = 60, right = 20, top = 30, bottom = 50;
-  cv::Mat3b img(h, w, cv::Vec3b(255, 255, 255));
-  const int first = history.front().step, last = std::max(history.back().step, first + 1);
-  auto px = [&](int step, double v) {
-    const double fx = static_cast<double>(step - first) / (last - first);
-    return cv::Point(left + static_cast<int>(fx * (w - left - right)),
-                     h - bottom - static_cast<int>(v / y_max * (h - top - bottom)));
-  };
-  cv::rectangle(img, {left, top}, {w - right, h - bottom}, {0, 0, 0}, 1);
-  for (int t = 0; t <= 4; ++t) {
-    const double v = y_max * t / 4;
-    const cv::Point p = px(first, v);
-    std::ostringstream label;
-    label.precision(3);
-    label << v;
-    cv::putText(img, label.str(), {5, p.y + 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0});
-    const int step = first + (last - first) * t / 4;
-    cv::putText(img, std::to_string(step), {px(step, 0).x - 10, h - bottom + 18},
-                cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0});
-  }
-  cv::putText(img, "step", {w / 2 - 15, h - 12}, cv::FONT_HERSHEY_SIMPLEX, 0.5, {0, 0, 0});
-  for (std::size_t k = 0; k < series.size(); ++k) {
-    std::vector<cv::Point> pts;
-    for (int i = 0; i < n; ++i)
-      pts.push_back(
-          px(history[static_cast<std::size_t>(i)].step, series[k].v[static_cast<std::size_t>(i)]));
-    cv::polylines(img, pts, false, series[k].colour, 1, cv::LINE_AA);
-    const int ly = top + 18 + 18 * static_cast<int>(k);
-    cv::line(img, {w - 150, ly - 4}, {w - 125, ly - 4}, series[k].colour, 2);
-    cv::putText(img, series[k].name, {w - 120, ly}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 0});
-  }
-  cv::putText(img, "pix2stiffness training losses (smoothed)", {left, 20}, cv::FONT_HERSHEY_SIMPLEX,
-              0.5, {0, 0, 0});
-  cv::imwrite(png.string(), img);
+  PlotLossCurves("pix2stiffness training losses (smoothed)", steps, series, png);
 }
 
 }  // namespace softgrasp::models

@@ -19,12 +19,17 @@
 #include "service/models/stiffness_model.h"
 #include "service/models/trainer.h"
 #include "sim/progress.h"
+#include "tools/train/args.h"
 #include "tools/train/evaluate.h"
+#include "tools/train/segmentation_cli.h"
 
 namespace {
 
 using softgrasp::core::Error;
 namespace models = softgrasp::models;
+using softgrasp::tools::Args;
+using softgrasp::tools::ParseDouble;
+using softgrasp::tools::ParseInt;
 
 constexpr const char* kUsage =
     "usage: softgrasp-train stiffness --data DIR --out MODEL [--steps N] [--seed S] [--batch B]\n"
@@ -49,46 +54,6 @@ int Fail(const std::string& message) {
 
 int FailError(const Error& e) {
   return Fail(e.message + (e.field.empty() ? "" : " [" + e.field + "]"));
-}
-
-struct Args {
-  std::vector<std::string> rest;
-  bool Take(const std::string& name, std::string* value) {
-    for (std::size_t i = 0; i < rest.size(); ++i) {
-      if (rest[i] == name && i + 1 < rest.size()) {
-        *value = rest[i + 1];
-        rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i),
-                   rest.begin() + static_cast<std::ptrdiff_t>(i) + 2);
-        return true;
-      }
-    }
-    return false;
-  }
-  bool Flag(const std::string& name) {
-    for (std::size_t i = 0; i < rest.size(); ++i) {
-      if (rest[i] == name) {
-        rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
-        return true;
-      }
-    }
-    return false;
-  }
-};
-
-bool ParseInt(const std::string& s, long long lo, long long hi, long long* out) {
-  char* end = nullptr;
-  const long long v = std::strtoll(s.c_str(), &end, 10);
-  if (s.empty() || *end != '\0' || v < lo || v > hi) return false;
-  *out = v;
-  return true;
-}
-
-bool ParseDouble(const std::string& s, double* out) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end != '\0' || !(v == v)) return false;
-  *out = v;
-  return true;
 }
 
 int RunStiffness(Args args) {
@@ -201,8 +166,9 @@ int main(int argc, char** argv) {
   for (int i = 2; i < argc; ++i) args.rest.emplace_back(argv[i]);
   if (command == "stiffness") return RunStiffness(std::move(args));
   if (command == "evaluate") return softgrasp::tools::RunEvaluate(args.rest);
+  if (command == "segmentation") return softgrasp::tools::RunSegmentationTrain(args.rest);
   if (command == "--help" || command == "-h") {
-    std::cout << kUsage;
+    std::cout << kUsage << softgrasp::tools::kSegmentationUsage;
     return 0;
   }
   return Fail("unknown command " + command + "\n" + kUsage);

@@ -1,0 +1,173 @@
+#include "tools/train/segmentation_cli.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "service/models/dataset.h"
+#include "service/models/segmentation_model.h"
+#include "service/models/segmentation_trainer.h"
+#include "service/models/stiffness_model.h"
+#include "service/models/trainer.h"
+#include "sim/progress.h"
+#include "tools/train/args.h"
+
+namespace softgrasp::tools {
+
+const char* const kSegmentationUsage =
+    "       softgrasp-train segmentation --data DIR[,DIR...] --out MODEL [--steps N] [--seed S]\n"
+    "                                    [--batch B] [--lr LR] [--resume] [--checkpoint-every N]\n"
+    "                                    [--width W] [--height H] [--base-channels C]\n"
+    "                                    [--levels L] [--centre-weight W] [--offset-weight W]\n"
+    "                                    [--ssim-weight W] [--max-scenes N] [--threads T]\n"
+    "  Trains the segmentation U-Net (foreground, centre heatmap, centre offsets,\n"
+    "  deformability) on softgrasp-sim datasets. Writes MODEL, MODEL.ckpt (resumable),\n"
+    "  MODEL_loss.csv/.png.\n"
+    "       softgrasp-train evaluate-segmentation --model MODEL|none --data DIR[,DIR...]\n"
+    "                                    [--scenes N] [--train-data DIR[,DIR...]] [--threads T]\n"
+    "  Prints JSON: mask AP (IoU 0.50:0.95), AP50, AP75, AR of the model and the PCL baseline\n"
+    "  per dataset and over all, per object category, and the deformability map's RMSE (0-255)\n"
+    "  and MSSIM against a constant baseline.\n";
+
+namespace {
+
+int Fail(const std::string& message) {
+  std::cerr << "softgrasp-train: " << message << "\n";
+  return 2;
+}
+
+int FailError(const core::Error& e) {
+  return Fail(e.message + (e.field.empty() ? "" : " [" + e.field + "]"));
+}
+
+std::vector<std::string> SplitComma(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string part;
+  while (std::getline(in, part, ',')) {
+    if (!part.empty()) out.push_back(part);
+  }
+  return out;
+}
+
+core::Result<std::vector<models::SceneDataset>> OpenAll(const std::string& dirs) {
+  std::vector<models::SceneDataset> out;
+  for (const std::string& dir : SplitComma(dirs)) {
+    auto d = models::SceneDataset::Open(dir);
+    if (!d.ok()) return d.error();
+    out.push_back(std::move(d.value()));
+  }
+  if (out.empty()) return core::MakeError(core::ErrorCode::kInvalidArgument, "no dataset", "data");
+  return out;
+}
+
+}  // namespace
+
+int RunSegmentationTrain(std::vector<std::string> argv) {
+  Args args{std::move(argv)};
+  models::SegmentationTrainOptions o;
+  std::string data, out, value;
+  long long n = 0;
+  int threads = 2, max_scenes = 0;
+  if (!args.Take("--data", &data)) return Fail("--data DIR is required");
+  if (!args.Take("--out", &out)) return Fail("--out MODEL is required");
+  o.out = out;
+  struct IntFlag {
+    const char* name;
+    long long lo, hi;
+    int* target;
+  };
+  const IntFlag int_flags[] = {
+      {"--steps", 1, 10000000, &o.steps},
+      {"--batch", 1, 256, &o.batch},
+      {"--checkpoint-every", 1, 10000000, &o.checkpoint_every},
+      {"--width", 16, 4096, &o.network.width},
+      {"--height", 16, 4096, &o.network.height},
+      {"--base-channels", 1, 256, &o.network.base_channels},
+      {"--levels", 2, 6, &o.network.levels},
+      {"--max-scenes", 1, 10000000, &max_scenes},
+      {"--threads", 1, 256, &threads},
+  };
+  for (const IntFlag& f : int_flags) {
+    if (!args.Take(f.name, &value)) continue;
+    if (!ParseInt(value, f.lo, f.hi, &n)) {
+      return Fail(std::string(f.name) + " must be an integer in " + std::to_string(f.lo) + ".." +
+                  std::to_string(f.hi));
+    }
+    *f.target = static_cast<int>(n);
+  }
+  if (args.Take("--seed", &value)) {
+    if (!ParseInt(value, 0, (1ll << 62), &n)) return Fail("--seed must be an integer >= 0");
+    o.seed = static_cast<std::uint64_t>(n);
+  }
+  struct DoubleFlag {
+    const char* name;
+    double* target;
+  };
+  const DoubleFlag double_flags[] = {{"--lr", &o.learning_rate},
+                                     {"--centre-weight", &o.centre_weight},
+                                     {"--offset-weight", &o.offset_weight},
+                                     {"--ssim-weight", &o.ssim_weight}};
+  for (const DoubleFlag& f : double_flags) {
+    if (args.Take(f.name, &value) && (!ParseDouble(value, f.target) || !(*f.target >= 0))) {
+      return Fail(std::string(f.name) + " must be a number >= 0");
+    }
+  }
+  o.resume = args.Flag("--resume");
+  if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front());
+  const int div = 1 << o.network.levels;
+  if (o.network.width % div != 0 || o.network.height % div != 0) {
+    return Fail("--width and --height must be multiples of 2^levels = " + std::to_string(div));
+  }
+
+  models::SetTorchThreads(threads);
+  auto datasets = OpenAll(data);
+  if (!datasets.ok()) return FailError(datasets.error());
+  int total = 0;
+  for (const auto& d : datasets.value()) total += max_scenes > 0 ? std::min(max_scenes, d.size()) : d.size();
+  const auto t0 = std::chrono::steady_clock::now();
+  auto load_bar = std::make_unique<sim::ProgressBar>("loading", total);
+  auto set = models::BuildSegmentationSet(datasets.value(),
+                                          cv::Size(o.network.width, o.network.height), max_scenes,
+                                          [&](int done, int) { load_bar->Update(done); });
+  load_bar.reset();
+  if (!set.ok()) return FailError(set.error());
+  std::cout << "loaded " << set.value().count() << " scenes (" << set.value().skipped
+            << " skipped) in "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()
+            << " s; mean object deformability " << set.value().mean_object_deformability
+            << "; threads " << threads << std::endl;
+
+  const bool tty = isatty(STDERR_FILENO) != 0;
+  sim::ProgressBar bar("training", o.steps);
+  const auto t_train = std::chrono::steady_clock::now();
+  int first_step = -1;
+  auto report = models::TrainSegmentation(
+      o, set.value(), [&](const models::SegmentationLossRecord& r, int steps) {
+        if (first_step < 0) first_step = r.step;
+        bar.Update(r.step);
+        if (!tty && (r.step % 50 == 0 || r.step == steps)) {
+          const double s =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t_train).count();
+          const double per_step = s / (r.step - first_step + 1);
+          std::printf(
+              "step %d/%d  total %.4f  fg %.4f  centre %.5f  offset %.4f  def %.4f  1-ssim %.4f"
+              "  %.2f s/step  eta %.0f min\n",
+              r.step, steps, r.total, r.foreground, r.centre, r.offset, r.deformability, r.ssim,
+              per_step, per_step * (steps - r.step) / 60.0);
+          std::fflush(stdout);
+        }
+      });
+  if (!report.ok()) return FailError(report.error());
+  std::cout << "trained steps " << report.value().start_step << " -> " << report.value().end_step
+            << " in " << report.value().seconds << " s; model " << o.out.string()
+            << ", checkpoint " << models::CheckpointPath(o.out).string() << ", loss curve "
+            << models::LossPngPath(o.out).string() << std::endl;
+  return 0;
+}
+
+}  // namespace softgrasp::tools
