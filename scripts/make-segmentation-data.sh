@@ -24,10 +24,14 @@ train_a() {
   gen train-near     --scenes 200 --seed 105 --objects 3-8 --camera-height 0.32
   gen val-bin        --scenes 100 --seed 201 --objects 3-8 --split val
   gen val-table      --scenes 50  --seed 203 --objects 3-8 --split val --support table --camera-height 0.70 --intrinsics "$prime"
+  # Selection sets (held-out shapes, other seeds) for choosing grouping thresholds, so the
+  # validation sets stay untouched until the final scores.
+  gen sel-bin        --scenes 40  --seed 301 --objects 3-8 --split val
 }
 train_b() {
   gen train-dense    --scenes 300 --seed 102 --objects 15-30
   gen val-dense      --scenes 50  --seed 202 --objects 15-30 --split val
+  gen sel-dense      --scenes 20  --seed 302 --objects 15-30 --split val
 }
 mkdir -p "$out"
 train_a & a=$!

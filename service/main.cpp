@@ -9,7 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "service/core/preprocess.h"
 #include "service/http/server.h"
+#include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 #include "service/rest/api.h"
 #include "service/rest/config.h"
@@ -88,6 +90,35 @@ LoadStiffnessModel(const std::string& path) {
       std::make_shared<models::StiffnessModel>(std::move(model).value()));
 }
 
+// The instance segmentation model (docs/segmentation.md), or null when configured "none" (the
+// PCL baseline then segments). A configured model that cannot be loaded is an error, as above.
+softgrasp::core::Result<std::shared_ptr<const softgrasp::models::SegmentationModel>>
+LoadSegmentationModel(const std::string& path) {
+  using namespace softgrasp;
+  if (path == "none") {
+    std::cerr << "softgrasp-server: no segmentation model (POST /v1/segmentation uses the PCL "
+                 "baseline; method=model answers 503)\n";
+    return std::shared_ptr<const models::SegmentationModel>();
+  }
+  auto model = models::SegmentationModel::Load(path);
+  if (!model) return model.error();
+  // One run on an empty table now, so the first request does not pay libtorch's set-up.
+  core::Camera camera;
+  camera.width = model.value().input_width();
+  camera.height = model.value().input_height();
+  camera.cx = (camera.width - 1) / 2.0;
+  camera.cy = (camera.height - 1) / 2.0;
+  core::DepthImage table;
+  table.depth_m = cv::Mat1f(camera.height, camera.width, 0.6f);
+  if (auto scene = core::Preprocess(table, camera); scene.ok()) {
+    model.value().SegmentScene(scene.value());
+  }
+  std::cerr << "softgrasp-server: segmentation model " << path << " ("
+            << model.value().description() << ")\n";
+  return std::shared_ptr<const models::SegmentationModel>(
+      std::make_shared<models::SegmentationModel>(std::move(model).value()));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -107,6 +138,9 @@ int main(int argc, char** argv) {
   if (config.stiffness_model.empty()) {
     config.stiffness_model = rest::DefaultStiffnessModel(ExecutablePath(argv[0]));
   }
+  if (config.segmentation_model.empty()) {
+    config.segmentation_model = rest::DefaultSegmentationModel(ExecutablePath(argv[0]));
+  }
   std::cerr << "config " << rest::ConfigToJson(config) << "\n";
   if (std::error_code error; !std::filesystem::is_regular_file(
           std::filesystem::path(config.web_root) / "index.html", error)) {
@@ -118,6 +152,12 @@ int main(int argc, char** argv) {
   if (!stiffness_model) {
     std::cerr << "softgrasp-server: the stiffness model cannot be loaded: "
               << stiffness_model.error().message << "\n";
+    return 1;
+  }
+  auto segmentation_model = LoadSegmentationModel(config.segmentation_model);
+  if (!segmentation_model) {
+    std::cerr << "softgrasp-server: the segmentation model cannot be loaded: "
+              << segmentation_model.error().message << "\n";
     return 1;
   }
 
@@ -139,7 +179,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   try {
-    http::Router router = rest::BuildRouter(config, robot.value(), stiffness_model.value());
+    http::Router router = rest::BuildRouter(config, robot.value(), stiffness_model.value(),
+                                            segmentation_model.value());
     config.server.answer_inline = [&router](const http::Request& request) {
       return router.AnswersInline(request);
     };

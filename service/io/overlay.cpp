@@ -5,6 +5,8 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -153,6 +155,79 @@ cv::Mat3b DrawGrasps(const cv::Mat3b& background, const std::vector<core::Grasp>
 cv::Mat3b RenderGraspOverlay(const core::DepthImage& depth,
                              const std::vector<core::Grasp>& grasps) {
   return DrawGrasps(ColorizeDepth(depth), grasps);
+}
+
+cv::Vec3b InstanceColor(int id) {
+  // Golden-angle hues: neighbouring ids get far-apart colours; full saturation, bright.
+  const double hue = std::fmod(static_cast<double>(id) * 137.50776, 360.0);
+  cv::Mat3b hsv(1, 1, cv::Vec3b(cv::saturate_cast<uchar>(hue / 2.0), 200, 255));
+  cv::Mat3b bgr;
+  cv::cvtColor(hsv, bgr, cv::COLOR_HSV2BGR);
+  return bgr(0, 0);
+}
+
+cv::Mat3b DrawInstances(const cv::Mat3b& background, const cv::Mat1w& labels, int highlight_id) {
+  if (background.size() != labels.size()) {
+    throw std::invalid_argument("DrawInstances: the labels' size differs from the picture's");
+  }
+  cv::Mat3b image;
+  if (background.empty()) return image;
+  // The background dimmed to grey, so the instance colours stand out.
+  cv::Mat1b grey;
+  cv::cvtColor(background, grey, cv::COLOR_BGR2GRAY);
+  grey.convertTo(grey, CV_8U, 0.6);
+  cv::cvtColor(grey, image, cv::COLOR_GRAY2BGR);
+  double max_id = 0;
+  cv::minMaxLoc(labels, nullptr, &max_id);
+  for (int id = 1; id <= static_cast<int>(max_id); ++id) {
+    const cv::Mat1b mask = labels == id;
+    if (cv::countNonZero(mask) == 0) continue;
+    const cv::Vec3b color = InstanceColor(id);
+    cv::Mat3b tinted;
+    cv::addWeighted(image, 0.35, cv::Mat3b(image.size(), color), 0.65, 0.0, tinted);
+    tinted.copyTo(image, mask);
+    std::vector<std::vector<cv::Point>> contours;
+    cv::findContours(mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+    const bool highlighted = id == highlight_id;
+    cv::drawContours(image, contours, -1,
+                     highlighted ? cv::Scalar(255, 255, 255) : cv::Scalar(color),
+                     highlighted ? 3 : 1, cv::LINE_AA);
+    // The label where the instance is thickest: inside it even when it is not convex.
+    cv::Mat1f distance;
+    cv::Mat1b padded;
+    cv::copyMakeBorder(mask, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
+    cv::distanceTransform(padded, distance, cv::DIST_L2, 3);
+    cv::Point inside;
+    cv::minMaxLoc(distance, nullptr, nullptr, nullptr, &inside);
+    inside -= cv::Point(1, 1);
+    const std::string text = std::to_string(id);
+    const double scale = std::clamp(labels.cols / 1100.0, 0.35, 1.5);
+    int baseline = 0;
+    const cv::Size size = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, scale, 2, &baseline);
+    const cv::Point origin(std::clamp(inside.x - size.width / 2, 0, labels.cols - size.width),
+                           std::clamp(inside.y + size.height / 2, size.height, labels.rows - 1));
+    cv::putText(image, text, origin, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), 4,
+                cv::LINE_AA);
+    cv::putText(image, text, origin, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(255, 255, 255),
+                1, cv::LINE_AA);
+  }
+  return image;
+}
+
+cv::Mat3b ColorizeDeformability(const cv::Mat1f& deformability, const cv::Mat1b& foreground) {
+  if (!foreground.empty() && foreground.size() != deformability.size()) {
+    throw std::invalid_argument("ColorizeDeformability: the mask's size differs from the map's");
+  }
+  // Stiffness-like values on ColorizeStiffness's scale: rigid (0) -> 1, very soft (1) -> 0.1.
+  cv::Mat1f as_stiffness(deformability.size(), 0.0f);
+  for (int r = 0; r < deformability.rows; ++r) {
+    const float* d = deformability.ptr<float>(r);
+    for (int c = 0; c < deformability.cols; ++c) {
+      if (!std::isfinite(d[c]) || (!foreground.empty() && foreground(r, c) == 0)) continue;
+      as_stiffness(r, c) = 1.0f - 0.9f * std::clamp(d[c], 0.0f, 1.0f);
+    }
+  }
+  return ColorizeStiffness(as_stiffness, 0.05f);
 }
 
 }  // namespace softgrasp::io

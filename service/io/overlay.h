@@ -1,5 +1,5 @@
 #pragma once
-/// Pictures of results: the depth colour-mapped with grasps drawn over it.
+/// Pictures of results: the depth colour-mapped with grasps drawn over it; object instances.
 
 #include <vector>
 
@@ -26,5 +26,21 @@ cv::Mat3b ColorizeStiffness(const cv::Mat1f& stiffness, float background_below);
 /// `grasps` drawn as in RenderGraspOverlay over any picture of the image's size (e.g.
 /// ColorizeStiffness). Returns a copy; `background` is not changed.
 cv::Mat3b DrawGrasps(const cv::Mat3b& background, const std::vector<core::Grasp>& grasps);
+
+/// Object instances over a picture of the labels' size (e.g. ColorizeDepth, which is dimmed to
+/// grey): each id of `labels` (0 = background, 1..N) filled in its own colour (a fixed palette,
+/// so an id has the same colour in every picture), outlined, and its number written at the
+/// instance pixel farthest from its outline. `highlight_id` (> 0) is outlined thicker in white.
+/// Returns a copy. @throws std::invalid_argument when the sizes differ.
+cv::Mat3b DrawInstances(const cv::Mat3b& background, const cv::Mat1w& labels,
+                        int highlight_id = 0);
+
+/// The colour DrawInstances gives instance `id` (> 0), BGR.
+cv::Vec3b InstanceColor(int id);
+
+/// A deformability map (0 rigid ... 1 very soft) colour-mapped on the same fixed scale as
+/// ColorizeStiffness, run the other way so a colour means the same material in both pictures:
+/// very soft blue ... rigid red. Pixels where `foreground` is 0 (and NaN) are black. BGR.
+cv::Mat3b ColorizeDeformability(const cv::Mat1f& deformability, const cv::Mat1b& foreground);
 
 }  // namespace softgrasp::io

@@ -1,5 +1,6 @@
 #include "service/models/dataset.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -27,6 +28,28 @@ core::Result<nlohmann::json> ReadJson(const std::filesystem::path& path) {
 
 core::Error FileError(const std::filesystem::path& path, const std::string& what) {
   return MakeError(ErrorCode::kUnprocessable, path.string() + ": " + what, "data");
+}
+
+/// Fills mostly_hidden_ids and category_of_id from the manifest's "objects"; entries without an
+/// integer "instance_id" are skipped, missing "category" / "mostly_hidden" fields are absent.
+void ReadObjectMarks(SceneSample* s) {
+  const auto objects = s->manifest.find("objects");
+  if (objects == s->manifest.end() || !objects->is_array()) return;
+  for (const nlohmann::json& o : *objects) {
+    if (!o.is_object()) continue;
+    const auto id = o.find("instance_id");
+    if (id == o.end() || !id->is_number_integer()) continue;
+    const int instance_id = id->get<int>();
+    const auto category = o.find("category");
+    if (category != o.end() && category->is_string()) {
+      s->category_of_id[instance_id] = category->get<std::string>();
+    }
+    const auto hidden = o.find("mostly_hidden");
+    if (hidden != o.end() && hidden->is_boolean() && hidden->get<bool>()) {
+      s->mostly_hidden_ids.push_back(instance_id);
+    }
+  }
+  std::sort(s->mostly_hidden_ids.begin(), s->mostly_hidden_ids.end());
 }
 
 }  // namespace
@@ -104,6 +127,7 @@ core::Result<SceneSample> SceneDataset::Load(int i) const {
   }
   stiffness.convertTo(s.stiffness, CV_32F, 1.0 / 255.0);
   s.labels = labels;
+  ReadObjectMarks(&s);
   return s;
 }
 

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
@@ -29,6 +30,11 @@ struct SceneSample {
   cv::Mat1w labels;        ///< instance ids, 0 = support
   core::Camera camera;     ///< from the manifest
   nlohmann::json manifest;
+  /// Instance ids the manifest marks "mostly_hidden" (visible_fraction < 0.10, see
+  /// docs/simulator.md), ascending; empty for datasets written before the field existed.
+  std::vector<int> mostly_hidden_ids;
+  /// Each manifest object's "instance_id" -> "category" (empty when the manifest lists none).
+  std::map<int, std::string> category_of_id;
 };
 
 class SceneDataset {

@@ -16,6 +16,7 @@
 #include "service/rest/depth_request.h"
 #include "service/rest/fractal_request.h"
 #include "service/rest/robot_api.h"
+#include "service/rest/segmentation_request.h"
 
 namespace softgrasp::rest {
 namespace {
@@ -24,11 +25,26 @@ using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 using StiffnessModelPtr = std::shared_ptr<const models::StiffnessModel>;
 
+// Optional numbers: null when absent.
+json OrNull(const std::optional<double>& value) {
+  return value && std::isfinite(*value) ? json(*value) : json();
+}
+
 double MillisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-json GraspToJson(const core::Grasp& g, int rank) {
+// `instances`: the segmentation the request used, or null (instance fields are then null).
+json GraspToJson(const core::Grasp& g, int rank, const GraspInstances* instances) {
+  json instance_id;
+  json instance_deformability;
+  if (instances != nullptr) {
+    const int id = InstanceAt(instances->labels, g.center_u_px, g.center_v_px);
+    instance_id = id;
+    if (id > 0 && static_cast<std::size_t>(id) < instances->mean_deformability.size()) {
+      instance_deformability = OrNull(instances->mean_deformability[static_cast<std::size_t>(id)]);
+    }
+  }
   return {
       {"rank", rank},
       {"score", g.score},
@@ -44,6 +60,10 @@ json GraspToJson(const core::Grasp& g, int rank) {
       // Mean of the stiffness map over the contact surface in the closing region, in [0, 1];
       // null when the model did not run (none loaded, or strategy=fge without mean_stiffness).
       {"mean_stiffness", std::isfinite(g.mean_stiffness) ? json(g.mean_stiffness) : json()},
+      // The instance under the grasp centre (0 = none) when the request used a segmentation.
+      {"instance_id", instance_id},
+      // That instance's mean deformability (0 rigid ... 1 very soft): the model's map only.
+      {"instance_deformability", instance_deformability},
       {"pose",
        {{"frame", "camera"},
         {"position_m", {g.p_CG_m[0], g.p_CG_m[1], g.p_CG_m[2]}},
@@ -73,7 +93,7 @@ json RobotInfoJson(const ServiceConfig& config, bool running) {
   return robot;
 }
 
-json ModelsJson(const StiffnessModelPtr& model) {
+json ModelsJson(const StiffnessModelPtr& model, const SegmentationModelPtr& segmentation) {
   json list = json::array();
   if (model) {
     list.push_back({{"name", "pix2stiffness"},
@@ -82,11 +102,19 @@ json ModelsJson(const StiffnessModelPtr& model) {
                     {"parameters", model->parameter_count()},
                     {"description", model->description()}});
   }
+  if (segmentation) {
+    list.push_back({{"name", "segmentation"},
+                    {"kind", "segmentation"},
+                    {"input_width", segmentation->input_width()},
+                    {"input_height", segmentation->input_height()},
+                    {"parameters", segmentation->parameter_count()},
+                    {"description", segmentation->description()}});
+  }
   return list;
 }
 
 http::Response Info(const ServiceConfig& config, bool robot_running,
-                    const StiffnessModelPtr& model) {
+                    const StiffnessModelPtr& model, const SegmentationModelPtr& segmentation) {
   const auto& limits = config.server.limits;
   json body = {
       {"name", "softgrasp"},
@@ -108,11 +136,14 @@ http::Response Info(const ServiceConfig& config, bool robot_running,
         {"body_timeout_ms", config.server.body_timeout_ms},
         {"max_fractal_points", config.max_fractal_points},
         {"max_fractal_attempts", config.max_fractal_attempts}}},
-      {"models", ModelsJson(model)},
+      {"models", ModelsJson(model, segmentation)},
       {"strategies", model ? json{"fge", "stiffness"} : json{"fge"}},
       {"default_strategy", model ? "stiffness" : "fge"},
       {"depth_formats", {"npy", "png16", "tiff"}},
       {"stiffness_formats", {"png8", "png16", "npy", "color"}},
+      {"segmentation_methods", segmentation ? json{"model", "pcl"} : json{"pcl"}},
+      {"default_segmentation_method", segmentation ? "model" : "pcl"},
+      {"segmentation_formats", {"json", "labels", "overlay", "deformability"}},
       {"mesh_formats", {"obj", "ply_ascii", "ply_binary", "stl_ascii", "stl_binary"}},
       {"defaults",
        {{"camera", CameraToJson(config.default_camera)},
@@ -134,7 +165,7 @@ http::Response PngResponse(const cv::Mat& image, std::size_t grasp_count) {
 }
 
 http::Response Grasps(const http::Request& request, const ServiceConfig& config,
-                      const StiffnessModelPtr& model) {
+                      const StiffnessModelPtr& model, const SegmentationModelPtr& segmenter) {
   const auto start = Clock::now();
   auto parsed = ParseGraspRequest(request, config, model != nullptr);
   if (!parsed.ok()) return ErrorToResponse(parsed.error());
@@ -153,6 +184,19 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
   core::Scene scene = std::move(preprocessed).value();
   core::RestrictContact(scene, in.region_of_interest, in.min_depth_m);
   const double preprocess_ms = MillisecondsSince(preprocess_start);
+
+  // Instances only when the request asks for them (segmenting is not free), and for pictures
+  // only when a target needs them (the picture shows no instance ids).
+  std::optional<GraspInstances> instances;
+  if (in.wants_instances() && (!png || in.target_id > 0)) {
+    auto found = InstancesForGrasps(in, scene, up.camera, segmenter.get());
+    if (!found.ok()) return ErrorToResponse(found.error());
+    instances = std::move(found).value();
+    if (in.target_id > 0) {
+      // Contacts on the target only; every other object stays an obstacle.
+      core::RestrictContact(scene, instances->labels == in.target_id, in.min_depth_m);
+    }
+  }
 
   // The model runs only when the answer shows its map: the stiffness strategy, the stiffness
   // overlay, or FGE grasps with mean_stiffness asked for.
@@ -193,12 +237,16 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
   }
   json list = json::array();
   for (std::size_t i = 0; i < grasps.size(); ++i) {
-    list.push_back(GraspToJson(grasps[i], static_cast<int>(i) + 1));
+    list.push_back(
+        GraspToJson(grasps[i], static_cast<int>(i) + 1, instances ? &*instances : nullptr));
   }
   json camera = CameraToJson(up.camera);
   camera["source"] = up.camera_source;
   json timing = {{"decode", decode_ms}, {"preprocess", preprocess_ms}};
   if (need_stiffness) timing["stiffness"] = stiffness_ms;
+  if (instances && std::string(instances->source) != "labels") {
+    timing["segmentation"] = instances->milliseconds;
+  }
   timing["detect"] = detect_ms;
   timing["total"] = MillisecondsSince(start);
   json body = {
@@ -215,11 +263,36 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
         {"d_m", scene.floor.d}}},
       {"gripper", GripperToJson(in.gripper)},
       {"contact_region",
-       {{"segmask", !in.region_of_interest.empty()}, {"min_depth_m", in.min_depth_m}}},
+       {{"segmask", !in.region_of_interest.empty()},
+        {"min_depth_m", in.min_depth_m},
+        {"target", in.target_id > 0 ? json(in.target_id) : json()}}},
+      {"segmentation",
+       instances ? json{{"source", instances->source}, {"instances", instances->count}}
+                 : json()},
       {"grasps", list},
       {"timing_ms", timing},
   };
   return http::Response::Json(200, body.dump());
+}
+
+// A map in [0, 1] as /v1/stiffness sends it: png8 round(255 x), png16 round(65535 x), npy x
+// itself, or `colorize`'s picture.
+template <class Colorize>
+http::Response EncodeMap(const cv::Mat1f& map, StiffnessFormat format, Colorize&& colorize) {
+  switch (format) {
+    case StiffnessFormat::kPng8:
+    case StiffnessFormat::kPng16: {
+      const bool wide = format == StiffnessFormat::kPng16;
+      cv::Mat levels;
+      map.convertTo(levels, wide ? CV_16U : CV_8U, wide ? 65535.0 : 255.0);  // rounds, saturates
+      return http::Response::Bytes(200, "image/png", io::EncodePng(levels));
+    }
+    case StiffnessFormat::kNpy:
+      return http::Response::Bytes(200, "application/x-npy", io::EncodeNpy(map));
+    case StiffnessFormat::kColor:
+      break;
+  }
+  return http::Response::Bytes(200, "image/png", io::EncodePng(colorize(map)));
 }
 
 // POST /v1/stiffness: the model's map of the uploaded depth, same size as the input.
@@ -241,29 +314,115 @@ http::Response Stiffness(const http::Request& request, const ServiceConfig& conf
   const double model_ms = MillisecondsSince(start);
   const cv::Mat1f& s = map.value();
 
+  http::Response out = EncodeMap(s, in.format, [](const cv::Mat1f& values) {
+    return io::ColorizeStiffness(values, models::kBackgroundThreshold);
+  });
+  out.set_header("Server-Timing", "model;dur=" + std::to_string(model_ms));
+  return out;
+}
+
+json InstanceToJson(const segmentation::InstanceInfo& i) {
+  return {
+      {"id", i.id},
+      {"score", i.score},
+      {"area_px", i.area_px},
+      {"bbox_px", {i.bbox_px.x, i.bbox_px.y, i.bbox_px.width, i.bbox_px.height}},
+      {"centroid_px", i.centroid_px},
+      {"centroid_m", i.centroid_m},
+      {"top_height_m", i.top_height_m},
+      {"mean_deformability", OrNull(i.mean_deformability)},
+      {"mean_stiffness", OrNull(i.mean_stiffness)},
+  };
+}
+
+// POST /v1/segmentation: object instances of the uploaded depth (docs/segmentation.md).
+http::Response Segmentation(const http::Request& request, const ServiceConfig& config,
+                            const StiffnessModelPtr& stiffness_model,
+                            const SegmentationModelPtr& model) {
+  const auto start = Clock::now();
+  auto parsed = ParseSegmentationRequest(request, config);
+  if (!parsed.ok()) return ErrorToResponse(parsed.error());
+  const SegmentationRequest& in = parsed.value();
+  const DepthUpload& up = in.upload;
+  auto method = ResolveSegmentationMethod(in.method, model != nullptr, "method");
+  if (!method.ok()) return ErrorToResponse(method.error());
+  if (in.format == SegmentationFormat::kDeformability &&
+      method.value() == segmentation::Method::kPcl) {
+    // Only reached without a model (method=pcl with this format is refused while parsing).
+    return ErrorToResponse(core::MakeError(
+        core::ErrorCode::kUnavailable,
+        "format 'deformability' needs the segmentation model and none is loaded (start the "
+        "server with --segmentation-model FILE)",
+        "format"));
+  }
+  const double decode_ms = MillisecondsSince(start);
+
+  const auto preprocess_start = Clock::now();
+  auto preprocessed = core::Preprocess(up.depth, up.camera);
+  if (!preprocessed.ok()) return ErrorToResponse(preprocessed.error());
+  const core::Scene scene = std::move(preprocessed).value();
+  const double preprocess_ms = MillisecondsSince(preprocess_start);
+
+  auto segmented = SegmentInstances(scene, up.camera, method.value(), model.get());
+  if (!segmented.ok()) return ErrorToResponse(segmented.error());
+  const SceneInstances& found = segmented.value();
+  const std::string timing_header = "preprocess;dur=" + std::to_string(preprocess_ms) +
+                                    ", segment;dur=" + std::to_string(found.milliseconds);
+
   http::Response out;
   switch (in.format) {
-    case StiffnessFormat::kPng8: {
-      cv::Mat levels;
-      s.convertTo(levels, CV_8U, 255.0);  // rounds and saturates
-      out = http::Response::Bytes(200, "image/png", io::EncodePng(levels));
+    case SegmentationFormat::kLabels:
+      out = http::Response::Bytes(200, "image/png", io::EncodePng(found.masks.labels));
       break;
-    }
-    case StiffnessFormat::kPng16: {
-      cv::Mat levels;
-      s.convertTo(levels, CV_16U, 65535.0);
-      out = http::Response::Bytes(200, "image/png", io::EncodePng(levels));
-      break;
-    }
-    case StiffnessFormat::kNpy:
-      out = http::Response::Bytes(200, "application/x-npy", io::EncodeNpy(s));
-      break;
-    case StiffnessFormat::kColor:
+    case SegmentationFormat::kOverlay:
       out = http::Response::Bytes(
-          200, "image/png", io::EncodePng(io::ColorizeStiffness(s, models::kBackgroundThreshold)));
+          200, "image/png",
+          io::EncodePng(io::DrawInstances(io::ColorizeDepth(up.depth), found.masks.labels)));
       break;
+    case SegmentationFormat::kDeformability: {
+      const cv::Mat1b objects = found.masks.labels > 0;
+      out = EncodeMap(found.deformability, in.encoding, [&objects](const cv::Mat1f& values) {
+        return io::ColorizeDeformability(values, objects);
+      });
+      break;
+    }
+    case SegmentationFormat::kJson: {
+      const auto describe_start = Clock::now();
+      double stiffness_ms = 0;
+      const auto infos =
+          DescribeSceneInstances(found, scene, up.camera, stiffness_model.get(), &stiffness_ms);
+      const double describe_ms = MillisecondsSince(describe_start) - stiffness_ms;
+      json list = json::array();
+      for (const auto& info : infos) list.push_back(InstanceToJson(info));
+      json camera = CameraToJson(up.camera);
+      camera["source"] = up.camera_source;
+      json timing = {{"decode", decode_ms},
+                     {"preprocess", preprocess_ms},
+                     {"segment", found.milliseconds}};
+      if (stiffness_ms > 0) timing["stiffness"] = stiffness_ms;
+      timing["describe"] = describe_ms;
+      timing["total"] = MillisecondsSince(start);
+      const json body = {
+          {"method", segmentation::MethodName(found.method)},
+          {"segmentation_model", found.method == segmentation::Method::kModel
+                                     ? json("segmentation") : json()},
+          {"stiffness_model", stiffness_model ? json("pix2stiffness") : json()},
+          {"image",
+           {{"width", up.depth.width()},
+            {"height", up.depth.height()},
+            {"format", io::DepthFormatName(up.depth_format)},
+            {"missing_fraction", scene.missing_fraction}}},
+          {"camera", camera},
+          {"instances", list},
+          {"timing_ms", timing},
+      };
+      out = http::Response::Json(200, body.dump());
+      break;
+    }
   }
-  out.set_header("Server-Timing", "model;dur=" + std::to_string(model_ms));
+  out.set_header("X-Instance-Count", std::to_string(found.masks.count()));
+  out.set_header("X-Segmentation-Method", segmentation::MethodName(found.method));
+  out.set_header("Server-Timing", timing_header);
   return out;
 }
 
@@ -392,7 +551,8 @@ http::Response ErrorToResponse(const core::Error& error) {
 http::Router BuildRouter(const ServiceConfig& config) { return BuildRouter(config, nullptr); }
 
 http::Router BuildRouter(const ServiceConfig& config, std::shared_ptr<robot::CommandTracker> robot,
-                         StiffnessModelPtr stiffness_model) {
+                         StiffnessModelPtr stiffness_model,
+                         SegmentationModelPtr segmentation_model) {
   http::Router router;
   const bool robot_running = robot != nullptr;
   // Constant-time answers: served on the I/O thread, so they answer while every worker plans.
@@ -401,16 +561,21 @@ http::Router BuildRouter(const ServiceConfig& config, std::shared_ptr<robot::Com
       http::Router::Execution::kInline);
   router.Add(
       "GET", "/v1/info",
-      [config, robot_running, stiffness_model](const http::Request&) {
-        return Info(config, robot_running, stiffness_model);
+      [config, robot_running, stiffness_model, segmentation_model](const http::Request&) {
+        return Info(config, robot_running, stiffness_model, segmentation_model);
       },
       http::Router::Execution::kInline);
-  router.Add("POST", "/v1/grasps", [config, stiffness_model](const http::Request& r) {
-    return Grasps(r, config, stiffness_model);
-  });
+  router.Add("POST", "/v1/grasps",
+             [config, stiffness_model, segmentation_model](const http::Request& r) {
+               return Grasps(r, config, stiffness_model, segmentation_model);
+             });
   router.Add("POST", "/v1/stiffness", [config, stiffness_model](const http::Request& r) {
     return Stiffness(r, config, stiffness_model);
   });
+  router.Add("POST", "/v1/segmentation",
+             [config, stiffness_model, segmentation_model](const http::Request& r) {
+               return Segmentation(r, config, stiffness_model, segmentation_model);
+             });
   router.Add("POST", "/v1/fractals",
              [config](const http::Request& r) { return Fractals(r, config); });
 

@@ -166,7 +166,9 @@ std::map<std::string, std::map<std::string, Setter>> Sections(ServiceConfig& c) 
        {{"max_points", Number(&c.max_fractal_points, 100, 1e6)},
         {"max_attempts", Number(&c.max_fractal_attempts, 1, 1e7)}}},
       {"web", {{"root", String(&c.web_root)}}},
-      {"models", {{"stiffness", String(&c.stiffness_model)}}},
+      {"models",
+       {{"stiffness", String(&c.stiffness_model)},
+        {"segmentation", String(&c.segmentation_model)}}},
       {"robot",
        {{"enabled", Bool(&c.robot.enabled)},
         {"domain_id", Number(&c.robot.domain_id, 0, 232)},
@@ -316,6 +318,9 @@ core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config) {
   if (const char* host = std::getenv("SOFTGRASP_HOST")) config.server.host = host;
   if (const char* web_root = std::getenv("SOFTGRASP_WEB_ROOT")) config.web_root = web_root;
   if (const char* model = std::getenv("SOFTGRASP_STIFFNESS_MODEL")) config.stiffness_model = model;
+  if (const char* model = std::getenv("SOFTGRASP_SEGMENTATION_MODEL")) {
+    config.segmentation_model = model;
+  }
   if (const char* v = std::getenv("SOFTGRASP_MIN_DEPTH_M")) {
     auto d = ParseDouble(v, "SOFTGRASP_MIN_DEPTH_M");
     if (!d) return d.error();
@@ -367,7 +372,7 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
       return out;
     }
     if (a == "--host" || a == "--port" || a == "--config" || a == "--workers" ||
-        a == "--web-root" || a == "--stiffness-model") {
+        a == "--web-root" || a == "--stiffness-model" || a == "--segmentation-model") {
       if (i + 1 >= args.size()) {
         return MakeError(ErrorCode::kInvalidArgument, a + " needs a value", a);
       }
@@ -393,6 +398,9 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
   if (const auto model = flags.find("--stiffness-model"); model != flags.end()) {
     config.stiffness_model = model->second;
   }
+  if (const auto model = flags.find("--segmentation-model"); model != flags.end()) {
+    config.segmentation_model = model->second;
+  }
   for (const char* name : {"--port", "--workers"}) {
     const auto flag = flags.find(name);
     if (flag == flags.end()) continue;
@@ -416,14 +424,18 @@ core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args)
 std::string UsageText() {
   return "usage: softgrasp-server [--host HOST] [--port PORT] [--workers N] [--config FILE]\n"
          "                        [--web-root DIR] [--stiffness-model FILE|none]\n"
+         "                        [--segmentation-model FILE|none]\n"
          "  --port 0 picks a free port; the chosen address is printed as\n"
          "  'listening on http://HOST:PORT'. --web-root: the built web page served at GET /\n"
          "  (default: ../web next to the executable's folder). --stiffness-model: the\n"
          "  pix2stiffness model for /v1/stiffness and strategy=stiffness (default: the shipped\n"
-         "  ../models/pix2stiffness.pt; 'none' serves without one). Environment: SOFTGRASP_HOST,\n"
+         "  ../models/pix2stiffness.pt; 'none' serves without one). --segmentation-model: the\n"
+         "  instance segmentation model for /v1/segmentation (default: the shipped\n"
+         "  ../models/segmentation.pt when it exists; 'none' or no file: the PCL baseline).\n"
+         "  Environment: SOFTGRASP_HOST,\n"
          "  SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,\n"
          "  SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_MIN_DEPTH_M, SOFTGRASP_WEB_ROOT,\n"
-         "  SOFTGRASP_STIFFNESS_MODEL.\n"
+         "  SOFTGRASP_STIFFNESS_MODEL, SOFTGRASP_SEGMENTATION_MODEL.\n"
          "  Robot endpoints: SOFTGRASP_ROBOT_ENABLED, SOFTGRASP_ROBOT_TOKENS,\n"
          "  SOFTGRASP_ROBOT_DOMAIN_ID, SOFTGRASP_ROBOT_DDS_CONFIG, SOFTGRASP_ROBOT_JOURNAL_DIR,\n"
          "  SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S (docs/robot-api.md).\n"
@@ -478,7 +490,7 @@ std::string ConfigToJson(const ServiceConfig& c) {
       {"fractals",
        {{"max_points", c.max_fractal_points}, {"max_attempts", c.max_fractal_attempts}}},
       {"web", {{"root", c.web_root}}},
-      {"models", {{"stiffness", c.stiffness_model}}},
+      {"models", {{"stiffness", c.stiffness_model}, {"segmentation", c.segmentation_model}}},
       {"robot",
        {{"enabled", c.robot.enabled},
         {"domain_id", c.robot.domain_id},
@@ -532,15 +544,28 @@ std::string DefaultWebRoot(const std::string& executable_path) {
   return candidates[0].string();
 }
 
-std::string DefaultStiffnessModel(const std::string& executable_path) {
+namespace {
+
+// <prefix>/models/NAME, else <prefix>/share/softgrasp/models/NAME, else "none".
+std::string ShippedModel(const std::string& executable_path, const char* name) {
   namespace fs = std::filesystem;
   const fs::path prefix = fs::path(executable_path).lexically_normal().parent_path().parent_path();
-  const fs::path relative = fs::path("models") / "pix2stiffness.pt";
+  const fs::path relative = fs::path("models") / name;
   for (const fs::path& candidate : {prefix / relative, prefix / "share" / "softgrasp" / relative}) {
     std::error_code error;
     if (fs::is_regular_file(candidate, error)) return candidate.string();
   }
   return "none";
+}
+
+}  // namespace
+
+std::string DefaultStiffnessModel(const std::string& executable_path) {
+  return ShippedModel(executable_path, "pix2stiffness.pt");
+}
+
+std::string DefaultSegmentationModel(const std::string& executable_path) {
+  return ShippedModel(executable_path, "segmentation.pt");
 }
 
 }  // namespace softgrasp::rest

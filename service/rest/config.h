@@ -57,6 +57,11 @@ struct ServiceConfig {
   /// Empty: softgrasp-server uses DefaultStiffnessModel() next to its executable; "none": no
   /// model (those requests answer 503 / 400, and strategy=fge is the default).
   std::string stiffness_model;
+  /// Instance segmentation model file (docs/segmentation.md) for POST /v1/segmentation and the
+  /// instance options of /v1/grasps. Empty: softgrasp-server uses DefaultSegmentationModel()
+  /// next to its executable; "none": no model (segmentation uses the PCL baseline, and
+  /// method=model answers 503).
+  std::string segmentation_model;
   RobotConfig robot;
 };
 
@@ -72,13 +77,13 @@ core::Result<ServiceConfig> ApplyConfigJson(ServiceConfig config, const std::str
 
 /// Applies SOFTGRASP_HOST, SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,
 /// SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_MIN_DEPTH_M, SOFTGRASP_WEB_ROOT,
-/// SOFTGRASP_STIFFNESS_MODEL, and the robot settings SOFTGRASP_ROBOT_ENABLED,
-/// SOFTGRASP_ROBOT_DOMAIN_ID, SOFTGRASP_ROBOT_DDS_CONFIG, SOFTGRASP_ROBOT_TOKENS (comma-separated),
-/// SOFTGRASP_ROBOT_JOURNAL_DIR, SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S from the environment.
+/// SOFTGRASP_STIFFNESS_MODEL, SOFTGRASP_SEGMENTATION_MODEL, and the robot settings
+/// SOFTGRASP_ROBOT_ENABLED, SOFTGRASP_ROBOT_DOMAIN_ID, SOFTGRASP_ROBOT_DDS_CONFIG,
+/// SOFTGRASP_ROBOT_TOKENS (comma-separated), SOFTGRASP_ROBOT_JOURNAL_DIR, SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S from the environment.
 core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config);
 
 /// Parses argv: --host H, --port P, --config FILE, --workers N, --web-root DIR,
-/// --stiffness-model FILE|none, --help. The
+/// --stiffness-model FILE|none, --segmentation-model FILE|none, --help. The
 /// config file is applied first, then the environment, then the other flags. `help` is set for
 /// --help.
 struct CommandLine {
@@ -100,6 +105,11 @@ std::string DefaultWebRoot(const std::string& executable_path);
 /// build copies it) if it exists, else "<prefix>/share/softgrasp/models/pix2stiffness.pt" if that
 /// does, else "none".
 std::string DefaultStiffnessModel(const std::string& executable_path);
+
+/// The shipped segmentation model when none is configured, as DefaultStiffnessModel:
+/// "<prefix>/models/segmentation.pt", else "<prefix>/share/softgrasp/models/segmentation.pt",
+/// else "none" (the PCL baseline serves).
+std::string DefaultSegmentationModel(const std::string& executable_path);
 
 /// The effective configuration as JSON, with the robot tokens masked.
 std::string ConfigToJson(const ServiceConfig& config);

@@ -22,6 +22,7 @@ struct RequestFields {
   std::optional<std::string> depth_bytes;
   std::optional<std::string> intrinsics_json;
   std::optional<std::string> segmask_bytes;
+  std::optional<std::string> labels_bytes;
 };
 
 bool IsRawDepthContentType(std::string_view type) {
@@ -47,6 +48,8 @@ core::Result<RequestFields> CollectFields(const http::Request& request) {
         fields.intrinsics_json = std::move(part.data);
       } else if (part.name == "segmask") {
         fields.segmask_bytes = std::move(part.data);
+      } else if (part.name == "labels") {
+        fields.labels_bytes = std::move(part.data);
       } else {
         fields.values[part.name] = std::move(part.data);
       }
@@ -223,6 +226,52 @@ core::Result<OutputFormat> ResolveOutput(const http::Request& request,
   return OutputFormat::kJson;
 }
 
+constexpr std::array<const char*, 2> kMethodNames = {"model", "pcl"};
+constexpr std::array<std::optional<segmentation::Method>, 2> kMethods = {
+    segmentation::Method::kModel, segmentation::Method::kPcl};
+
+// A label image upload: a 16-bit PNG of the depth's size, counts = instance ids (0 = none).
+core::Result<cv::Mat1w> DecodeLabels(const std::string& bytes, const ServiceConfig& config,
+                                     const core::DepthImage& depth) {
+  const auto relabel = [](core::Error e) {
+    e.field = "labels";
+    return e;
+  };
+  auto format = io::SniffDepthFormat(bytes);
+  if (!format.ok()) return relabel(format.error());
+  if (format.value() != io::DepthFormat::kPng16) {
+    return MakeError(ErrorCode::kUnsupportedMediaType,
+                     "labels must be a 16-bit PNG (POST /v1/segmentation?format=labels), got " +
+                         std::string(io::DepthFormatName(format.value())),
+                     "labels");
+  }
+  io::DepthDecodeOptions decode;
+  decode.png_unit_m = 1.0;  // counts are ids, exact in float
+  decode.max_pixels = config.max_image_pixels;
+  auto counts = io::DecodeDepth(bytes, decode);
+  if (!counts.ok()) {
+    core::Error e = relabel(counts.error());
+    if (e.message.find("16-bit") != std::string::npos) {
+      e.message = "labels must be a 16-bit PNG (POST /v1/segmentation?format=labels): " +
+                  e.message;
+    }
+    return e;
+  }
+  const cv::Mat1f& ids = counts.value().depth_m;
+  if (ids.cols != depth.width() || ids.rows != depth.height()) {
+    return MakeError(ErrorCode::kUnprocessable,
+                     "labels are " + std::to_string(ids.cols) + "x" + std::to_string(ids.rows) +
+                         " but the depth image is " + std::to_string(depth.width()) + "x" +
+                         std::to_string(depth.height()),
+                     "labels");
+  }
+  cv::Mat1f zeroed = ids.clone();
+  cv::patchNaNs(zeroed, 0.0);  // 0 decodes as missing
+  cv::Mat1w labels;
+  zeroed.convertTo(labels, CV_16U);
+  return labels;
+}
+
 }  // namespace
 
 const char* StrategyName(GraspStrategy strategy) {
@@ -243,7 +292,8 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
 
   for (const auto& [key, text] : fields.values) {
     if (key == "format" || key == "strategy" || key == "draw" || key == "overlay" ||
-        key == "mean_stiffness" || IsUploadField(key)) {
+        key == "mean_stiffness" || key == "instances" || key == "segmentation" ||
+        key == "target" || IsUploadField(key)) {
       continue;
     }
     const auto option = NumericOptions().find(key);
@@ -310,6 +360,37 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
     }
     out.region_of_interest = std::move(mask).value();
   }
+
+  auto instances = ParseChoice<bool, 2>(fields, "instances", false, {"true", "false"},
+                                        {true, false});
+  if (!instances.ok()) return instances.error();
+  out.report_instances = instances.value();
+  auto method = ParseChoice<std::optional<segmentation::Method>, 2>(
+      fields, "segmentation", std::nullopt, kMethodNames, kMethods);
+  if (!method.ok()) return method.error();
+  out.segmentation_method = method.value();
+  if (const auto target = fields.values.find("target"); target != fields.values.end()) {
+    auto id = ParseNumber("target", target->second, 1, 65535);
+    if (!id.ok()) return id.error();
+    if (id.value() != std::floor(id.value())) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "target must be an instance id (an integer from 1), got '" +
+                           target->second + "'",
+                       "target");
+    }
+    out.target_id = static_cast<int>(id.value());
+  }
+  if (fields.labels_bytes) {
+    auto labels = DecodeLabels(*fields.labels_bytes, config, out.upload.depth);
+    if (!labels.ok()) return labels.error();
+    out.instance_labels = std::move(labels).value();
+    if (out.segmentation_method) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "give either a labels part or segmentation, not both: labels are used "
+                       "as they are",
+                       "segmentation");
+    }
+  }
   return out;
 }
 
@@ -323,10 +404,10 @@ core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& reques
       return MakeError(ErrorCode::kInvalidArgument, "unknown field '" + key + "'", key);
     }
   }
-  if (fields.segmask_bytes) {
+  if (fields.segmask_bytes || fields.labels_bytes) {
+    const char* part = fields.segmask_bytes ? "segmask" : "labels";
     return MakeError(ErrorCode::kInvalidArgument,
-                     "unknown field 'segmask' (a region of interest applies to /v1/grasps)",
-                     "segmask");
+                     std::string("unknown field '") + part + "' (it applies to /v1/grasps)", part);
   }
   StiffnessRequest out;
   auto format = ParseChoice<StiffnessFormat, 4>(
@@ -335,6 +416,55 @@ core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& reques
        StiffnessFormat::kColor});
   if (!format.ok()) return format.error();
   out.format = format.value();
+  auto upload = DecodeUpload(fields, config);
+  if (!upload.ok()) return upload.error();
+  out.upload = std::move(upload).value();
+  return out;
+}
+
+core::Result<SegmentationRequest> ParseSegmentationRequest(const http::Request& request,
+                                                           const ServiceConfig& config) {
+  auto collected = CollectFields(request);
+  if (!collected.ok()) return collected.error();
+  const RequestFields& fields = collected.value();
+  for (const auto& [key, text] : fields.values) {
+    if (key != "format" && key != "method" && key != "encoding" && !IsUploadField(key)) {
+      return MakeError(ErrorCode::kInvalidArgument, "unknown field '" + key + "'", key);
+    }
+  }
+  if (fields.segmask_bytes || fields.labels_bytes) {
+    const char* part = fields.segmask_bytes ? "segmask" : "labels";
+    return MakeError(ErrorCode::kInvalidArgument,
+                     std::string("unknown field '") + part + "' (it applies to /v1/grasps)", part);
+  }
+  SegmentationRequest out;
+  auto method = ParseChoice<std::optional<segmentation::Method>, 2>(fields, "method", std::nullopt,
+                                                                    kMethodNames, kMethods);
+  if (!method.ok()) return method.error();
+  out.method = method.value();
+  auto format = ParseChoice<SegmentationFormat, 4>(
+      fields, "format", SegmentationFormat::kJson, {"json", "labels", "overlay", "deformability"},
+      {SegmentationFormat::kJson, SegmentationFormat::kLabels, SegmentationFormat::kOverlay,
+       SegmentationFormat::kDeformability});
+  if (!format.ok()) return format.error();
+  out.format = format.value();
+  auto encoding = ParseChoice<StiffnessFormat, 4>(
+      fields, "encoding", StiffnessFormat::kPng8, {"png8", "png16", "npy", "color"},
+      {StiffnessFormat::kPng8, StiffnessFormat::kPng16, StiffnessFormat::kNpy,
+       StiffnessFormat::kColor});
+  if (!encoding.ok()) return encoding.error();
+  out.encoding = encoding.value();
+  if (fields.values.count("encoding") && out.format != SegmentationFormat::kDeformability) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "encoding applies to format=deformability only", "encoding");
+  }
+  if (out.method == segmentation::Method::kPcl &&
+      out.format == SegmentationFormat::kDeformability) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "format 'deformability' needs method 'model': the PCL baseline estimates no "
+                     "deformability",
+                     "format");
+  }
   auto upload = DecodeUpload(fields, config);
   if (!upload.ok()) return upload.error();
   out.upload = std::move(upload).value();

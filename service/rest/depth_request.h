@@ -1,7 +1,9 @@
 #pragma once
-/// Reads the requests that upload a depth image (POST /v1/grasps, POST /v1/stiffness; multipart
-/// form or raw body) into engine inputs. Errors name the field at fault (depth, fx, top_k, ...).
+/// Reads the requests that upload a depth image (POST /v1/grasps, POST /v1/stiffness,
+/// POST /v1/segmentation; multipart form or raw body) into engine inputs. Errors name the field
+/// at fault (depth, fx, top_k, ...).
 
+#include <optional>
 #include <string>
 
 #include "service/core/depth.h"
@@ -11,6 +13,7 @@
 #include "service/http/message.h"
 #include "service/io/depth_codec.h"
 #include "service/rest/config.h"
+#include "service/segmentation/instances.h"
 
 namespace softgrasp::rest {
 
@@ -51,6 +54,23 @@ struct GraspRequest {
   /// Field "mean_stiffness" = "true" | "false": whether strategy=fge grasps report the model's
   /// mean stiffness (it costs a model run). Default false; the stiffness strategy always does.
   bool report_mean_stiffness = false;
+  /// File part "labels": an instance label image of the depth's size (the 16-bit PNG of
+  /// POST /v1/segmentation?format=labels; 0 = no object), used instead of segmenting again.
+  /// Empty = none given.
+  cv::Mat1w instance_labels;
+  /// Field "target" (> 0): only grasps with contacts on this instance; other objects stay
+  /// obstacles. 0 = any object.
+  int target_id = 0;
+  /// Field "instances" = "true" | "false": report each grasp's instance (segments the scene
+  /// unless labels are given). Default false; implied by "target" and by a "labels" part.
+  bool report_instances = false;
+  /// Field "segmentation" = "model" | "pcl": the segmenter when one has to run. Unset: the
+  /// model when one is loaded, else pcl.
+  std::optional<segmentation::Method> segmentation_method;
+  /// Whether the answer needs an instance segmentation (given or computed).
+  bool wants_instances() const {
+    return report_instances || target_id > 0 || !instance_labels.empty();
+  }
 };
 
 /// `stiffness_model_loaded`: whether strategy=stiffness and overlay=stiffness can be served;
@@ -72,5 +92,25 @@ struct StiffnessRequest {
 /// (default), png16, npy or color; anything else is a 400 naming the field.
 core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& request,
                                                      const ServiceConfig& config);
+
+/// POST /v1/segmentation answers: the instances as JSON, the 16-bit label image, the coloured
+/// overlay picture, or the model's deformability map (encoded as /v1/stiffness encodes its map).
+enum class SegmentationFormat { kJson, kLabels, kOverlay, kDeformability };
+
+struct SegmentationRequest {
+  DepthUpload upload;
+  /// Field "method" = "model" | "pcl". Unset: the model when one is loaded, else pcl.
+  std::optional<segmentation::Method> method;
+  SegmentationFormat format = SegmentationFormat::kJson;
+  /// format=deformability only: field "encoding" = png8 (default), png16, npy or color.
+  StiffnessFormat encoding = StiffnessFormat::kPng8;
+};
+
+/// Fields: the depth (and intrinsics) as for /v1/grasps, png_unit_m, "method", "format" = json
+/// (default), labels, overlay or deformability, and "encoding" (format=deformability only);
+/// anything else is a 400 naming the field. Whether the method can serve is checked later
+/// (ResolveSegmentationMethod).
+core::Result<SegmentationRequest> ParseSegmentationRequest(const http::Request& request,
+                                                           const ServiceConfig& config);
 
 }  // namespace softgrasp::rest

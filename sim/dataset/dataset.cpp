@@ -60,6 +60,21 @@ std::optional<core::Error> WriteSceneFiles(const SceneSpec& spec, const Generate
                                            const std::string& stem) {
   const RenderedViews& views = generated.views;
   json manifest = SceneManifest(spec, generated);
+  auto visibility = MeasureVisibility(generated, spec.render);
+  if (!visibility.ok()) return visibility.error();
+  for (json& object : manifest["objects"]) {
+    const int id = object.at("instance_id").get<int>();
+    for (const ObjectVisibility& v : visibility.value()) {
+      if (v.instance_id != id) continue;
+      object["visible_px"] = v.visible_px;
+      object["amodal_px"] = v.amodal_px;
+      object["visible_fraction"] = v.visible_fraction;
+      object["mostly_hidden"] = v.mostly_hidden;
+    }
+  }
+  manifest["visibility"] = {
+      {"mostly_hidden_below_fraction", kMostlyHiddenVisibleFraction},
+      {"amodal_px", "pixels the object covers rendered alone on the support, same camera"}};
   manifest["files"] = {{"depth", stem + "_depth.png"},
                        {"stiffness", stem + "_stiffness.png"},
                        {"deformability", stem + "_deformability.png"},

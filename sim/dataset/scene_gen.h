@@ -58,6 +58,29 @@ std::uint64_t SceneSeed(std::uint64_t dataset_seed, int index, ShapeSplit split)
 /// Builds, settles and renders one scene.
 core::Result<GeneratedScene> GenerateScene(const SceneSpec& spec, std::uint64_t scene_seed);
 
+/// An object is "mostly hidden" when less than this fraction of its amodal pixels is visible
+/// (e.g. excluded from segmentation metrics like COCO's crowd regions).
+inline constexpr double kMostlyHiddenVisibleFraction = 0.10;
+
+/// How much of one object the camera sees, in pixels of the rendered image.
+struct ObjectVisibility {
+  int instance_id = 0;
+  int visible_px = 0;  ///< pixels where the rendered labels show this object
+  /// Pixels it covers when rendered alone on the support with the same camera and rays (pixel
+  /// centres); always >= visible_px (visible pixels are counted in, guarding against ray ties).
+  int amodal_px = 0;
+  double visible_fraction = 0;  ///< visible_px / amodal_px in [0, 1]; 0 when amodal_px == 0
+  bool mostly_hidden = false;   ///< visible_fraction < kMostlyHiddenVisibleFraction
+};
+
+/// Visibility of every object of generated.scene (in the scene's order), generated.views.labels
+/// being its labels rendered with `render`'s camera and pose. Each object's amodal mask is ray
+/// cast against a scene holding only the support and that object, casting only the pixels
+/// inside the projection of the object's vertices. Deterministic. Errors: those of
+/// SceneRaycaster::Build; kInvalidArgument when the labels are not camera-sized.
+core::Result<std::vector<ObjectVisibility>> MeasureVisibility(const GeneratedScene& generated,
+                                                              const RenderOptions& render);
+
 /// The scene's manifest: seed, split, camera (intrinsics and world_from_camera), support,
 /// objects (category, shape parameters, mass, pose), noise model, the drop report, and the whole
 /// spec ("spec", SceneSpecToJson) so the scene can be rebuilt exactly from the manifest.

@@ -138,6 +138,75 @@ TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
   EXPECT_TRUE(spec["paths"]["/v1/stiffness"]["post"]["responses"].contains("503"));
 }
 
+TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
+  const json spec = LoadSpec();
+  const SchemaValidator validator(spec);
+  const json& error_schema = spec["components"]["schemas"]["Error"];
+  const auto upload = [](std::vector<testing::FormPart> extra = {}) {
+    std::vector<testing::FormPart> parts{
+        {"depth",
+         testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")),
+         "d.npy"},
+        {"intrinsics",
+         testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")),
+         "p.intr"}};
+    parts.insert(parts.end(), extra.begin(), extra.end());
+    return parts;
+  };
+  testing::RunningServer server;  // no models: the PCL baseline
+
+  const auto info = server.Send(testing::RawRequest("GET", "/v1/info"));
+  EXPECT_EQ(validator.Validate(json::parse(info.body), spec["components"]["schemas"]["Info"]),
+            std::vector<std::string>{});
+
+  const json& operation = spec["paths"]["/v1/segmentation"]["post"];
+  const auto segmented = server.Send(testing::MultipartRequest("/v1/segmentation", upload()));
+  ASSERT_EQ(segmented.status, 200) << segmented.body;
+  const json body = json::parse(segmented.body);
+  ASSERT_FALSE(body["instances"].empty());
+  EXPECT_EQ(validator.Validate(body, validator.Resolve(operation["responses"]["200"])["content"]
+                                                      ["application/json"]["schema"]),
+            std::vector<std::string>{});
+  // The documented example is a valid answer too.
+  EXPECT_EQ(validator.Validate(operation["responses"]["200"]["content"]["application/json"]
+                                        ["example"],
+                               spec["components"]["schemas"]["SegmentationResponse"]),
+            std::vector<std::string>{});
+  for (const char* format : {"labels", "overlay"}) {
+    const auto reply = server.Send(
+        testing::MultipartRequest("/v1/segmentation", upload({{"format", format, ""}})));
+    EXPECT_EQ(reply.status, 200) << format;
+    EXPECT_EQ(reply.header("Content-Type").value_or(""), "image/png") << format;
+  }
+  for (const auto& [extra, status] : std::vector<std::pair<testing::FormPart, int>>{
+           {{"method", "model", ""}, 503},
+           {{"format", "deformability", ""}, 503},
+           {{"format", "gif", ""}, 400}}) {
+    const auto reply =
+        server.Send(testing::MultipartRequest("/v1/segmentation", upload({extra})));
+    EXPECT_EQ(reply.status, status) << extra.name << "=" << extra.data;
+    EXPECT_EQ(validator.Validate(json::parse(reply.body), error_schema),
+              std::vector<std::string>{});
+    EXPECT_TRUE(operation["responses"].contains(std::to_string(status)));
+  }
+
+  // Grasps with their instances, and with a target.
+  for (const auto& extra : std::vector<testing::FormPart>{{"instances", "true", ""},
+                                                         {"target", "1", ""}}) {
+    const auto grasps = server.Send(testing::MultipartRequest("/v1/grasps", upload({extra})));
+    ASSERT_EQ(grasps.status, 200) << grasps.body;
+    const json grasps_body = json::parse(grasps.body);
+    EXPECT_FALSE(grasps_body["segmentation"].is_null());
+    EXPECT_EQ(validator.Validate(grasps_body, spec["components"]["schemas"]["GraspResponse"]),
+              std::vector<std::string>{});
+  }
+  const auto unknown = server.Send(
+      testing::MultipartRequest("/v1/grasps", upload({{"target", "999", ""}})));
+  EXPECT_EQ(unknown.status, 422);
+  EXPECT_EQ(validator.Validate(json::parse(unknown.body), error_schema),
+            std::vector<std::string>{});
+}
+
 TEST(OpenApiContractTest, DisabledRobotRoutesAnswerTheDocumented503) {
   const json spec = LoadSpec();
   const SchemaValidator validator(spec);

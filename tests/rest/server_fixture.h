@@ -151,12 +151,15 @@ class RunningServer {
   explicit RunningServer(ServiceConfig config = {},
                          std::shared_ptr<robot::CommandTracker> robot = nullptr,
                          std::function<void(const std::string&)> access_log = nullptr,
-                         std::shared_ptr<const models::StiffnessModel> stiffness_model = nullptr)
+                         std::shared_ptr<const models::StiffnessModel> stiffness_model = nullptr,
+                         std::shared_ptr<const models::SegmentationModel> segmentation_model =
+                             nullptr)
       : config_(std::move(config)) {
     config_.server.host = "127.0.0.1";
     config_.server.port = 0;
     config_.server.access_log = access_log ? std::move(access_log) : [](const std::string&) {};
-    router_ = BuildRouter(config_, std::move(robot), std::move(stiffness_model));
+    router_ = BuildRouter(config_, std::move(robot), std::move(stiffness_model),
+                          std::move(segmentation_model));
     server_ = std::make_unique<http::Server>(
         config_.server, [this](http::Request& r) { return router_.Dispatch(r); });
     server_->Start();

@@ -231,7 +231,9 @@ describe('softgrasp page in chromium', () => {
 
   it('shows the stiffness map of the shipped model under the grasps, and mean stiffness', async () => {
     const info = await (await fetch(`${base}/v1/info`)).json();
-    assert.deepEqual(info.models.map((m) => [m.name, m.kind]), [['pix2stiffness', 'stiffness']]);
+    // (A segmentation model may be listed too, once one ships: the objects panel's business.)
+    assert.deepEqual(info.models.filter((m) => m.kind === 'stiffness').map((m) => [m.name, m.kind]),
+      [['pix2stiffness', 'stiffness']]);
     assert.deepEqual(info.strategies, ['fge', 'stiffness']);
     assert.equal(info.default_strategy, 'stiffness');
     // What the model says about the frame, straight from the API: the bar is hard, the floor is
@@ -417,7 +419,7 @@ describe('softgrasp page in chromium, server without a stiffness model', () => {
 
   it('offers only FGE, shows no stiffness view and still finds grasps', async () => {
     const info = await (await fetch(`${plainBase}/v1/info`)).json();
-    assert.deepEqual(info.models, []);
+    assert.deepEqual(info.models.filter((m) => m.kind === 'stiffness'), []);
     assert.deepEqual(info.strategies, ['fge']);
     assert.equal(info.default_strategy, 'fge');
 

@@ -92,11 +92,17 @@ function startListening(exe, args, { env = {}, what, timeoutMs = 20_000 } = {}) 
  * Starts softgrasp-server on 127.0.0.1, port 0, serving the built page. Resolves with its base
  * URL once it prints "listening on http://HOST:PORT". `env` adds settings (SOFTGRASP_ROBOT_...).
  * `stiffnessModel`: a model file, or 'none' to serve without one; unset, the server loads the
- * shipped model next to its executable (<build>/models/pix2stiffness.pt).
+ * shipped model next to its executable (<build>/models/pix2stiffness.pt). `segmentationModel`
+ * likewise (<build>/models/segmentation.pt when it exists, else the PCL baseline).
  */
-export function startServer({ timeoutMs = 20_000, env = {}, stiffnessModel } = {}) {
+export function startServer({
+  timeoutMs = 20_000, env = {}, stiffnessModel, segmentationModel,
+} = {}) {
   const args = ['--host', '127.0.0.1', '--port', '0', '--workers', '2', '--web-root', paths.webRoot];
   if (stiffnessModel !== undefined) args.push('--stiffness-model', String(stiffnessModel));
+  if (segmentationModel !== undefined) {
+    args.push('--segmentation-model', String(segmentationModel));
+  }
   return startListening(paths.server, args, { env, what: 'softgrasp-server', timeoutMs });
 }
 

@@ -1,9 +1,10 @@
 // The page's pure modules under node: error messages from API bodies, file names from
 // Content-Disposition, the grasp geometry the canvas draws, the fractal request body, the
-// stiffness view's choices from /v1/info, and the robot panel's command body, states, result
-// numbers and error messages.
+// stiffness view's choices from /v1/info, the objects panel's choices and label decoding, and the
+// robot panel's command body, states, result numbers and error messages.
 import assert from 'node:assert/strict';
 import { describe, it } from 'node:test';
+import { deflateSync } from 'node:zlib';
 
 import { ApiError, describeError, fileNameFromDisposition, parseErrorBody } from '../../web/src/api.js';
 import { fractalBody } from '../../web/src/fractals.js';
@@ -12,6 +13,9 @@ import {
   commandUrl, describeRobotError, isFinalState, isValidCommandId, newCommandId, resultSummary,
   robotCommandBody, stateSteps,
 } from '../../web/src/robot_model.js';
+import {
+  decodeLabelsPng, instanceAt, optionalText, segmentationChoices,
+} from '../../web/src/segmentation_model.js';
 import {
   meanStiffnessText, stiffnessForm, stiffnessModel, strategyChoices,
 } from '../../web/src/stiffness.js';
@@ -223,5 +227,103 @@ describe('robot panel model', () => {
     assert.equal(describeRobotError(busy), 'No robot can take it now: no robot is alive (try again in 2 s)');
     assert.equal(describeRobotError(parseErrorBody(500, '', body('internal', 'journal full'))), 'journal full');
     assert.match(describeRobotError(new TypeError('Failed to fetch')), /^Could not reach the service/);
+  });
+});
+
+// ---- the objects panel (src/segmentation_model.js) ----
+
+function crc32(bytes) {
+  let c = ~0;
+  for (const b of bytes) {
+    c ^= b;
+    for (let k = 0; k < 8; k += 1) c = (c >>> 1) ^ (0xedb88320 & -(c & 1));
+  }
+  return ~c >>> 0;
+}
+
+function chunk(type, data) {
+  const out = Buffer.alloc(12 + data.length);
+  out.writeUInt32BE(data.length, 0);
+  out.write(type, 4, 'latin1');
+  Buffer.from(data).copy(out, 8);
+  out.writeUInt32BE(crc32(out.subarray(4, 8 + data.length)), 8 + data.length);
+  return out;
+}
+
+function paethPredictor(a, b, c) {
+  const p = a + b - c;
+  const [pa, pb, pc] = [Math.abs(p - a), Math.abs(p - b), Math.abs(p - c)];
+  if (pa <= pb && pa <= pc) return a;
+  return pb <= pc ? b : c;
+}
+
+/** A 16-bit grey PNG of `ids` (rows of numbers), row y filtered with filter type y % 5. */
+function labelsPng(ids) {
+  const height = ids.length;
+  const width = ids[0].length;
+  const stride = 2 * width;
+  const raw = [];
+  let previous = new Array(stride).fill(0);
+  ids.forEach((row, y) => {
+    const line = row.flatMap((id) => [id >> 8, id & 0xff]);
+    const filter = y % 5;
+    raw.push(filter);
+    for (let i = 0; i < stride; i += 1) {
+      const left = i >= 2 ? line[i - 2] : 0;
+      const up = previous[i];
+      const upLeft = i >= 2 ? previous[i - 2] : 0;
+      const predict = [0, left, up, (left + up) >> 1, paethPredictor(left, up, upLeft)][filter];
+      raw.push((line[i] - predict) & 0xff);
+    }
+    previous = line;
+  });
+  const header = Buffer.alloc(13);
+  header.writeUInt32BE(width, 0);
+  header.writeUInt32BE(height, 4);
+  header.set([16, 0, 0, 0, 0], 8);
+  return Buffer.concat([Buffer.from([137, 80, 78, 71, 13, 10, 26, 10]), chunk('IHDR', header),
+    chunk('IDAT', deflateSync(Buffer.from(raw))), chunk('IEND', Buffer.alloc(0))]);
+}
+
+describe('objects panel', () => {
+  it('offers the methods /v1/info lists and preselects its default', () => {
+    assert.deepEqual(segmentationChoices({ segmentation_methods: ['model', 'pcl'],
+      default_segmentation_method: 'model' }).selected, 'model');
+    const plain = segmentationChoices({ segmentation_methods: ['pcl'], default_segmentation_method: 'pcl' });
+    assert.deepEqual(plain.options.map((o) => o.value), ['pcl']);
+    assert.equal(plain.selected, 'pcl');
+    assert.deepEqual(segmentationChoices(null).options.map((o) => o.value), ['pcl']);
+  });
+
+  it('writes optional values with two decimals or a dash', () => {
+    assert.equal(optionalText(0.4567), '0.46');
+    assert.equal(optionalText(null), '–');
+    assert.equal(optionalText(undefined), '–');
+  });
+
+  it('decodes 16-bit label PNGs with every row filter, ids above 255 included', async () => {
+    const ids = [
+      [0, 1, 1, 2, 300],
+      [0, 1, 2, 2, 300],
+      [7, 7, 0, 0, 65535],
+      [7, 7, 0, 513, 513],
+      [0, 0, 0, 513, 0],
+      [9, 8, 7, 6, 5],
+    ];
+    const labels = await decodeLabelsPng(labelsPng(ids));
+    assert.equal(labels.width, 5);
+    assert.equal(labels.height, 6);
+    assert.deepEqual([...labels.ids], ids.flat());
+    assert.equal(instanceAt(labels, 4.7, 2.2), 65535);
+    assert.equal(instanceAt(labels, 1.5, 0.5), 1);
+    assert.equal(instanceAt(labels, -1, 0), 0);
+    assert.equal(instanceAt(labels, 5, 0), 0);
+  });
+
+  it('refuses PNGs that are not 16-bit grey', async () => {
+    const png = labelsPng([[1, 2]]);
+    png[24] = 8; // bit depth in IHDR
+    await assert.rejects(decodeLabelsPng(png), /16-bit grey/);
+    await assert.rejects(decodeLabelsPng(Buffer.from('not a png')), /not a PNG/);
   });
 });

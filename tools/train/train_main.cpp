@@ -167,6 +167,9 @@ int main(int argc, char** argv) {
   if (command == "stiffness") return RunStiffness(std::move(args));
   if (command == "evaluate") return softgrasp::tools::RunEvaluate(args.rest);
   if (command == "segmentation") return softgrasp::tools::RunSegmentationTrain(args.rest);
+  if (command == "evaluate-segmentation") {
+    return softgrasp::tools::RunSegmentationEvaluate(args.rest);
+  }
   if (command == "--help" || command == "-h") {
     std::cout << kUsage << softgrasp::tools::kSegmentationUsage;
     return 0;

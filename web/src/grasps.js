@@ -5,7 +5,10 @@
 // (the depth picture the page draws its own grasps on, so a row can be highlighted) and
 // format=png (the service's own overlay picture, offered as a download). When the service has a
 // stiffness model (GET /v1/info "models"), a fourth, POST /v1/stiffness format=color with the same
-// depth and intrinsics, gives the stiffness map the grasps can be drawn on instead.
+// depth and intrinsics, gives the stiffness map the grasps can be drawn on instead. Once the
+// objects panel (src/segmentation.js) has segmented the image, the requests carry its label image
+// as the `labels` part (each grasp then names its object, at no extra cost: the service does not
+// segment again), and target=ID when an object is picked there.
 
 import { call, describeError } from './api.js';
 import { angleDegrees, graspShape, isDrawable } from './grasp_geometry.js';
@@ -16,6 +19,13 @@ import {
 
 /** Sent on `document` when the grasp picked in the table changes: detail {grasp, index, source}. */
 export const GRASP_SELECTED_EVENT = 'softgrasp:grasp-selected';
+/**
+ * Sent on `document` by the objects panel when its segmentation or the picked object changes:
+ * detail {labels: Blob (16-bit label PNG) or null, target: id or 0}.
+ */
+export const OBJECTS_EVENT = 'softgrasp:objects';
+/** Sent on `document` when the depth image or its intrinsics change (old instances are stale). */
+export const DEPTH_CHANGED_EVENT = 'softgrasp:depth-changed';
 
 const BEST_COLOUR = 'rgb(0, 255, 0)'; // as the service's overlay
 const OTHER_COLOUR = 'rgb(255, 255, 255)';
@@ -64,8 +74,8 @@ const PICTURE_LABELS = {
   stiffness: 'Stiffness map with the grasps drawn over it',
 };
 
-/** The request form: files and every non-empty field. */
-function buildForm(root, depthFile) {
+/** The request form: files and every non-empty field, and the objects' labels and target. */
+function buildForm(root, depthFile, objects) {
   const form = new FormData();
   form.append('depth', depthFile, depthFile.name);
   const intrinsics = root.querySelector('#intrinsics-file').files[0];
@@ -75,6 +85,28 @@ function buildForm(root, depthFile) {
     if (value !== '') form.append(name, value);
   }
   form.append('strategy', root.querySelector('#strategy').value);
+  if (objects && objects.labels) {
+    form.append('labels', objects.labels, 'labels.png');
+    if (objects.target) form.append('target', String(objects.target));
+  }
+  return form;
+}
+
+/**
+ * The depth image chosen in the grasps panel with its intrinsics, as a form for another endpoint
+ * that takes the same upload (POST /v1/segmentation); null before a depth image is chosen.
+ */
+export function depthUploadForm(doc) {
+  const depthFile = doc.querySelector('#depth-file').files[0];
+  if (!depthFile) return null;
+  const form = new FormData();
+  form.append('depth', depthFile, depthFile.name);
+  const intrinsics = doc.querySelector('#intrinsics-file').files[0];
+  if (intrinsics) form.append('intrinsics', intrinsics, intrinsics.name);
+  for (const name of INTRINSIC_FIELDS) {
+    const value = doc.querySelector(`#${name}`).value.trim();
+    if (value !== '') form.append(name, value);
+  }
   return form;
 }
 
@@ -151,6 +183,7 @@ function fillTable(tbody, grasps, selected, onSelect) {
       cell(fixed(angleDegrees(g.angle_rad), 1), 'num'),
       cell(p.map((x) => fixed(x * 1000, 1)).join(', '), 'num'),
       cell(q.map((x) => fixed(x, 3)).join(', '), 'num'),
+      cell(Number.isInteger(g.instance_id) && g.instance_id > 0 ? String(g.instance_id) : '–', 'num'),
     );
     if (i === selected) row.classList.add('selected');
     tbody.append(row);
@@ -189,7 +222,17 @@ export function mountGraspsPanel(root, info) {
   const hasStiffness = stiffnessModel(info) !== null;
 
   // bitmaps: the pictures the grasps can be drawn on ({depth, stiffness}); picture: the one shown.
-  const state = { grasps: [], bitmaps: {}, picture: 'depth', selected: 0, source: '' };
+  const state = {
+    grasps: [], bitmaps: {}, picture: 'depth', selected: 0, source: '', objects: null,
+  };
+  const targetNote = root.querySelector('#grasp-target');
+  document.addEventListener(OBJECTS_EVENT, (event) => {
+    state.objects = event.detail && event.detail.labels ? event.detail : null;
+    const target = state.objects ? state.objects.target : 0;
+    targetNote.textContent = target
+      ? `Only object ${target} (picked in the objects panel); other objects are obstacles.` : '';
+    targetNote.hidden = !target;
+  });
   const redraw = () => {
     const picture = state.bitmaps[state.picture] ? state.picture : 'depth';
     const bitmap = state.bitmaps[picture];
@@ -224,7 +267,11 @@ export function mountGraspsPanel(root, info) {
   const describeFile = () => {
     const file = depthInput.files[0];
     fileName.textContent = file ? `${file.name} (${fileSizeText(file.size)})` : '';
+    document.dispatchEvent(new CustomEvent(DEPTH_CHANGED_EVENT));
   };
+  root.querySelector('#intrinsics-file').addEventListener('change', () => {
+    document.dispatchEvent(new CustomEvent(DEPTH_CHANGED_EVENT));
+  });
   depthInput.addEventListener('change', describeFile);
   drop.addEventListener('dragover', (event) => {
     event.preventDefault();
@@ -256,7 +303,7 @@ export function mountGraspsPanel(root, info) {
       depthInput.focus();
       return;
     }
-    const body = buildForm(root, depthFile);
+    const body = buildForm(root, depthFile, state.objects);
     try {
       await whileBusy(form, progress, async () => {
         const [json, depthPng, overlayPng, stiffnessPng] = await Promise.all([

@@ -8,9 +8,11 @@ import { describeError, fetchInfo } from './api.js';
 import { mountFractalsPanel } from './fractals.js';
 import { mountGraspsPanel } from './grasps.js';
 import { mountRobotPanel } from './robot.js';
+import { mountSegmentationPanel } from './segmentation.js';
 
 const PANELS = {
   grasps: mountGraspsPanel,
+  segmentation: mountSegmentationPanel,
   fractals: mountFractalsPanel,
   robot: mountRobotPanel,
 };

@@ -1,0 +1,131 @@
+#include "service/rest/segmentation_request.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "service/segmentation/pcl_segmenter.h"
+
+namespace softgrasp::rest {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MillisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+}  // namespace
+
+core::Result<segmentation::Method> ResolveSegmentationMethod(
+    std::optional<segmentation::Method> requested, bool model_loaded, const char* field) {
+  if (!requested) return model_loaded ? segmentation::Method::kModel : segmentation::Method::kPcl;
+  if (*requested == segmentation::Method::kModel && !model_loaded) {
+    return core::MakeError(core::ErrorCode::kUnavailable,
+                           "no segmentation model is loaded: start the server with "
+                           "--segmentation-model FILE (the shipped model is "
+                           "models/segmentation.pt), or ask for the PCL baseline with " +
+                               std::string(field) + "=pcl",
+                           field);
+  }
+  return *requested;
+}
+
+core::Result<SceneInstances> SegmentInstances(const core::Scene& scene,
+                                              const core::Camera& camera,
+                                              segmentation::Method method,
+                                              const models::SegmentationModel* model) {
+  const auto start = Clock::now();
+  SceneInstances out;
+  out.method = method;
+  if (method == segmentation::Method::kModel) {
+    if (model == nullptr) {
+      return core::MakeError(core::ErrorCode::kUnavailable, "no segmentation model is loaded",
+                             "method");
+    }
+    models::SegmentationOutput result = model->SegmentScene(scene);
+    out.masks = std::move(result.instances);
+    out.deformability = std::move(result.deformability);
+    out.foreground = std::move(result.foreground);
+  } else {
+    auto masks = segmentation::SegmentPcl(scene, camera);
+    if (!masks.ok()) return masks.error();
+    out.masks = std::move(masks).value();
+  }
+  out.milliseconds = MillisecondsSince(start);
+  return out;
+}
+
+std::vector<segmentation::InstanceInfo> DescribeSceneInstances(
+    const SceneInstances& instances, const core::Scene& scene, const core::Camera& camera,
+    const models::StiffnessModel* stiffness_model, double* stiffness_ms) {
+  const auto start = Clock::now();
+  cv::Mat1f stiffness;
+  // The stiffness map only matters where there are instances to average it over.
+  if (stiffness_model != nullptr && instances.masks.count() > 0) {
+    stiffness = stiffness_model->PredictScene(scene);
+  }
+  if (stiffness_ms != nullptr) *stiffness_ms = stiffness.empty() ? 0.0 : MillisecondsSince(start);
+  return segmentation::DescribeInstances(instances.masks, scene, camera, instances.deformability,
+                                         stiffness);
+}
+
+int InstanceAt(const cv::Mat1w& labels, double u_px, double v_px) {
+  if (labels.empty() || !std::isfinite(u_px) || !std::isfinite(v_px)) return 0;
+  const int u = static_cast<int>(std::lround(std::clamp(u_px, 0.0, labels.cols - 1.0)));
+  const int v = static_cast<int>(std::lround(std::clamp(v_px, 0.0, labels.rows - 1.0)));
+  return labels(v, u);
+}
+
+bool HasInstance(const cv::Mat1w& labels, int id) {
+  return id > 0 && !labels.empty() && cv::countNonZero(labels == id) > 0;
+}
+
+core::Result<GraspInstances> InstancesForGrasps(const GraspRequest& request,
+                                                const core::Scene& scene,
+                                                const core::Camera& camera,
+                                                const models::SegmentationModel* model) {
+  GraspInstances out;
+  if (!request.instance_labels.empty()) {
+    out.labels = request.instance_labels;
+  } else {
+    const auto start = Clock::now();
+    auto method =
+        ResolveSegmentationMethod(request.segmentation_method, model != nullptr, "segmentation");
+    if (!method.ok()) return method.error();
+    auto segmented = SegmentInstances(scene, camera, method.value(), model);
+    if (!segmented.ok()) return segmented.error();
+    const SceneInstances& found = segmented.value();
+    out.labels = found.masks.labels;
+    out.source = segmentation::MethodName(found.method);
+    if (!found.deformability.empty()) {
+      out.mean_deformability.resize(static_cast<std::size_t>(found.masks.count()) + 1);
+      for (const auto& info : DescribeSceneInstances(found, scene, camera, nullptr)) {
+        out.mean_deformability[static_cast<std::size_t>(info.id)] = info.mean_deformability;
+      }
+    }
+    out.milliseconds = MillisecondsSince(start);
+  }
+  double max_id = 0;
+  cv::minMaxLoc(out.labels, nullptr, &max_id);
+  std::vector<bool> present(static_cast<std::size_t>(max_id) + 1, false);
+  for (int v = 0; v < out.labels.rows; ++v) {
+    const std::uint16_t* row = out.labels[v];
+    for (int u = 0; u < out.labels.cols; ++u) present[row[u]] = true;
+  }
+  out.count = static_cast<int>(std::count(present.begin() + 1, present.end(), true));
+  const int target = request.target_id;
+  if (target > 0 && (target > static_cast<int>(max_id) || !present[target])) {
+    return core::MakeError(core::ErrorCode::kUnprocessable,
+                           "target " + std::to_string(target) +
+                               " is not an instance of the segmentation (" +
+                               std::to_string(out.count) + " instances, ids up to " +
+                               std::to_string(static_cast<int>(max_id)) +
+                               "; see POST /v1/segmentation)",
+                           "target");
+  }
+  return out;
+}
+
+}  // namespace softgrasp::rest

@@ -1,0 +1,222 @@
+// softgrasp-train evaluate-segmentation: the segmentation model against the PCL baseline on
+// validation sets (docs/segmentation.md, "Evaluation").
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+
+#include "service/core/metrics.h"
+#include "service/core/preprocess.h"
+#include "service/models/dataset.h"
+#include "service/models/segmentation_model.h"
+#include "service/models/stiffness_model.h"
+#include "service/segmentation/instance_metrics.h"
+#include "service/segmentation/pcl_segmenter.h"
+#include "sim/progress.h"
+#include "tools/train/args.h"
+#include "tools/train/segmentation_cli.h"
+
+namespace softgrasp::tools {
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+int Fail(const std::string& message) {
+  std::cerr << "softgrasp-train evaluate-segmentation: " << message << "\n";
+  return 2;
+}
+
+json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+double Ms(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+json ScoresJson(const segmentation::MaskScores& s) {
+  json per_category = json::object();
+  for (const auto& [name, c] : s.per_category) {
+    per_category[name] = {{"instances", c.instances},
+                          {"recall50", Num(c.recall50)},
+                          {"ar", Num(c.ar)},
+                          {"mean_best_iou", Num(c.mean_best_iou)}};
+  }
+  return {{"ap", Num(s.ap)},
+          {"ap50", Num(s.ap50)},
+          {"ap75", Num(s.ap75)},
+          {"ar", Num(s.ar)},
+          {"images", s.images},
+          {"truth_instances", s.truth_instances},
+          {"predicted_instances", s.predicted_instances},
+          {"per_category", per_category}};
+}
+
+/// Deformability errors of one method over a set: per-scene RMSE (0-255) and MSSIM (10 x 10
+/// regions) averaged over scenes, and per category the RMSE over that category's true pixels.
+struct DeformabilityStats {
+  std::vector<double> rmse, mssim;
+  std::map<std::string, std::pair<double, long long>> category_sq;  ///< sum of squares, pixels
+  void Add(const cv::Mat1f& truth, const cv::Mat1f& predicted, const cv::Mat1w& labels,
+           const std::map<int, std::string>& category_of_id) {
+    rmse.push_back(core::StiffnessRmse255(truth, predicted).value());
+    mssim.push_back(core::StiffnessMssim(truth, predicted).value());
+    for (int v = 0; v < labels.rows; ++v) {
+      for (int u = 0; u < labels.cols; ++u) {
+        const int id = labels(v, u);
+        if (id == 0) continue;
+        const auto it = category_of_id.find(id);
+        const std::string& name = it == category_of_id.end() ? std::string("unknown") : it->second;
+        const double d = 255.0 * (truth(v, u) - predicted(v, u));
+        auto& acc = category_sq[name];
+        acc.first += d * d;
+        acc.second += 1;
+      }
+    }
+  }
+  json ToJson() const {
+    double r = 0, m = 0;
+    for (double x : rmse) r += x;
+    for (double x : mssim) m += x;
+    json per_category = json::object();
+    for (const auto& [name, acc] : category_sq) {
+      per_category[name] = Num(std::sqrt(acc.first / std::max(1LL, acc.second)));
+    }
+    const double n = static_cast<double>(std::max<std::size_t>(1, rmse.size()));
+    return {{"rmse_255", Num(r / n)}, {"mssim", Num(m / n)}, {"scenes", rmse.size()},
+            {"rmse_255_per_category", per_category}};
+  }
+};
+
+struct SetResult {
+  segmentation::MaskEvaluator model, pcl;
+  DeformabilityStats model_def, baseline_def;
+  std::vector<double> model_ms, pcl_ms;
+  int scenes = 0, skipped = 0, ignored_instances = 0;
+};
+
+json SetJson(const SetResult& r, bool with_model) {
+  json j = {{"scenes", r.scenes},
+            {"skipped", r.skipped},
+            {"ignored_mostly_hidden", r.ignored_instances},
+            {"pcl", ScoresJson(r.pcl.Compute())},
+            {"pcl_ms_median", Num(Median(r.pcl_ms))},
+            {"deformability_baseline_pcl_constant", r.baseline_def.ToJson()}};
+  if (with_model) {
+    j["model"] = ScoresJson(r.model.Compute());
+    j["model_ms_median"] = Num(Median(r.model_ms));
+    j["deformability_model"] = r.model_def.ToJson();
+  }
+  return j;
+}
+
+}  // namespace
+
+int RunSegmentationEvaluate(std::vector<std::string> argv) {
+  Args args{std::move(argv)};
+  std::string model_path, data, value;
+  long long n = 0;
+  int max_scenes = 0, threads = 2;
+  double baseline_deformability = 0.503;
+  if (!args.Take("--model", &model_path)) return Fail("--model MODEL|none is required");
+  if (!args.Take("--data", &data)) return Fail("--data DIR[,DIR...] is required");
+  if (args.Take("--scenes", &value)) {
+    if (!ParseInt(value, 1, 10000000, &n)) return Fail("--scenes must be >= 1");
+    max_scenes = static_cast<int>(n);
+  }
+  if (args.Take("--threads", &value)) {
+    if (!ParseInt(value, 1, 256, &n)) return Fail("--threads must be in 1..256");
+    threads = static_cast<int>(n);
+  }
+  if (args.Take("--baseline-deformability", &value) &&
+      (!ParseDouble(value, &baseline_deformability) || baseline_deformability < 0 ||
+       baseline_deformability > 1)) {
+    return Fail("--baseline-deformability must be in [0, 1]");
+  }
+  if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front());
+  models::SetTorchThreads(threads);
+  std::optional<models::SegmentationModel> model;
+  if (model_path != "none") {
+    auto loaded = models::SegmentationModel::Load(model_path);
+    if (!loaded.ok()) return Fail(loaded.error().message);
+    model.emplace(std::move(loaded.value()));
+  }
+
+  json out = {{"model", model ? json(model->description()) : json(nullptr)},
+              {"baseline_deformability", baseline_deformability},
+              {"sets", json::object()}};
+  SetResult all;
+  std::stringstream dirs(data);
+  std::string dir;
+  while (std::getline(dirs, dir, ',')) {
+    if (dir.empty()) continue;
+    auto ds = models::SceneDataset::Open(dir);
+    if (!ds.ok()) return Fail(ds.error().message);
+    const int count = max_scenes > 0 ? std::min(max_scenes, ds.value().size()) : ds.value().size();
+    SetResult r;
+    sim::ProgressBar bar("evaluating " + std::filesystem::path(dir).filename().string(), count);
+    for (int i = 0; i < count; ++i) {
+      auto sample = ds.value().Load(i);
+      if (!sample.ok()) return Fail(sample.error().message);
+      const models::SceneSample& s = sample.value();
+      auto scene = core::Preprocess(s.depth, s.camera);
+      bar.Update(i + 1);
+      if (!scene.ok()) {
+        ++r.skipped;
+        continue;
+      }
+      ++r.scenes;
+      segmentation::TruthImage truth{s.labels, s.mostly_hidden_ids, s.category_of_id};
+      r.ignored_instances += static_cast<int>(s.mostly_hidden_ids.size());
+      cv::Mat1f def_truth(s.labels.size(), 0.0f);
+      for (int v = 0; v < s.labels.rows; ++v) {
+        for (int u = 0; u < s.labels.cols; ++u) {
+          if (s.labels(v, u) > 0) def_truth(v, u) = 1.0f - std::clamp(s.stiffness(v, u), 0.0f, 1.0f);
+        }
+      }
+      const auto t0 = Clock::now();
+      auto pcl = segmentation::SegmentPcl(scene.value(), s.camera);
+      const auto t1 = Clock::now();
+      if (!pcl.ok()) return Fail(pcl.error().message);
+      r.pcl_ms.push_back(Ms(t0, t1));
+      r.pcl.Add(truth, pcl.value());
+      all.pcl.Add(truth, pcl.value());
+      cv::Mat1f def_baseline(s.labels.size(), 0.0f);
+      def_baseline.setTo(static_cast<float>(baseline_deformability), pcl.value().labels > 0);
+      r.baseline_def.Add(def_truth, def_baseline, s.labels, s.category_of_id);
+      all.baseline_def.Add(def_truth, def_baseline, s.labels, s.category_of_id);
+      if (model) {
+        const auto t2 = Clock::now();
+        const models::SegmentationOutput m = model->SegmentScene(scene.value());
+        const auto t3 = Clock::now();
+        r.model_ms.push_back(Ms(t2, t3));
+        r.model.Add(truth, m.instances);
+        all.model.Add(truth, m.instances);
+        r.model_def.Add(def_truth, m.deformability, s.labels, s.category_of_id);
+        all.model_def.Add(def_truth, m.deformability, s.labels, s.category_of_id);
+      }
+    }
+    all.scenes += r.scenes;
+    all.skipped += r.skipped;
+    all.ignored_instances += r.ignored_instances;
+    all.model_ms.insert(all.model_ms.end(), r.model_ms.begin(), r.model_ms.end());
+    all.pcl_ms.insert(all.pcl_ms.end(), r.pcl_ms.begin(), r.pcl_ms.end());
+    out["sets"][std::filesystem::path(dir).filename().string()] = SetJson(r, model.has_value());
+  }
+  out["all"] = SetJson(all, model.has_value());
+  std::cout << out.dump(2) << std::endl;
+  return 0;
+}
+
+}  // namespace softgrasp::tools
