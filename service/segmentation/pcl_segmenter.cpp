@@ -2,6 +2,7 @@
 
 #include <pcl/ModelCoefficients.h>
 #include <pcl/PointIndices.h>
+#include <pcl/console/print.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/method_types.h>
@@ -241,6 +242,13 @@ double InstanceScore(const std::vector<cv::Point>& pixels, double min_cluster_px
 
 core::Result<InstanceMasks> SegmentPcl(const core::Scene& scene, const core::Camera& camera,
                                        const PclParams& params) {
+  // RANSAC finding no plane is an expected outcome here (a scene without walls), not an error
+  // for the service's log: PCL's console stays quiet.
+  static const bool quiet = [] {
+    pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+    return true;
+  }();
+  (void)quiet;
   const cv::Size size(camera.width, camera.height);
   if (scene.depth_filled_m.size() != size || scene.height_m.size() != size ||
       (!scene.missing_mask.empty() && scene.missing_mask.size() != size)) {
