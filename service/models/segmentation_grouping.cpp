@@ -1,6 +1,7 @@
 #include "service/models/segmentation_grouping.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
@@ -99,10 +100,16 @@ segmentation::InstanceMasks GroupInstances(const HeadMaps& maps, cv::Size output
     }
   }
   if (foreground_out) *foreground_out = fg;
-  return segmentation::Compact(labels, p.min_area_px, [&](int id) {
-    const auto k = static_cast<std::size_t>(id);
-    return peaks[k - 1].value * (area[k] > 0 ? fg_sum[k] / area[k] : 0.0);
-  });
+  const segmentation::InstanceMasks compact =
+      segmentation::Compact(labels, p.min_area_px, [&](int id) {
+        const auto k = static_cast<std::size_t>(id);
+        return peaks[k - 1].value * (area[k] > 0 ? fg_sum[k] / area[k] : 0.0);
+      });
+  const int border_px =
+      p.max_border_px > 0
+          ? std::max(1, static_cast<int>(std::lround(p.max_border_px * output_size.width / 640.0)))
+          : 0;
+  return segmentation::DropCutByBorder(compact, border_px);
 }
 
 }  // namespace softgrasp::models

@@ -13,9 +13,13 @@ namespace softgrasp::models {
 struct GroupingParams {
   float foreground_threshold = 0.5f;  ///< foreground probability above which a pixel is an object
   float centre_threshold = 0.1f;      ///< heatmap peaks below this start no instance
-  int peak_window_px = 7;             ///< non-maximum suppression window, model pixels (odd)
+  int peak_window_px = 11;            ///< non-maximum suppression window, model pixels (odd)
   int max_instances = 100;            ///< strongest peaks kept
   int min_area_px = 60;               ///< at the output resolution; smaller instances are dropped
+  /// Instances with at least this many pixels on the image's outermost rows and columns are
+  /// dropped (segmentation::DropCutByBorder), at 640 px width, scaled with the width: objects cut
+  /// by the field of view and a wrist camera's own fingers. The PCL baseline's rule. 0 = keep.
+  int max_border_px = 20;
 };
 
 /// The heads at model resolution (all the same size).

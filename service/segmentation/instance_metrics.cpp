@@ -230,12 +230,19 @@ MaskScores MaskEvaluator::Compute() const {
     tp.clear();
     fp.clear();
     int tp_count = 0, fp_count = 0;
-    for (std::size_t i : ranking) {
-      const Outcome o = detections_[i].outcome[k];
+    for (std::size_t r = 0; r < ranking.size(); ++r) {
+      const Detection& d = detections_[ranking[r]];
+      const Outcome o = d.outcome[k];
       if (o == Outcome::kIgnored) continue;
       (o == Outcome::kTruePositive ? tp_count : fp_count) += 1;
       tp.push_back(tp_count);
       fp.push_back(fp_count);
+      // A cut between two different scores: everything scored >= d.score is above it.
+      const bool cut = r + 1 == ranking.size() || detections_[ranking[r + 1]].score < d.score;
+      if (k == 0 && cut && tp_count >= kConfidentPrecision * (tp_count + fp_count)) {
+        scores.confident_score = d.score;
+        scores.confident_recall50 = static_cast<double>(tp_count) / truth_instances_;
+      }
     }
     const double ap = InterpolatedAp(tp, fp, truth_instances_);
     ap_sum += ap;

@@ -44,11 +44,18 @@ struct MaskScores {
   int images = 0;
   int truth_instances = 0;      ///< not ignored
   int predicted_instances = 0;  ///< detections evaluated (at most 100 per image)
+  /// A calibrated "confident" threshold: the lowest detection score s such that, of the
+  /// detections scored >= s, at least kConfidentPrecision are true positives at IoU 0.50
+  /// (detections ignored by the crowd rule not counted); -1 when no score reaches it.
+  double confident_score = -1;
+  double confident_recall50 = 0;  ///< recall at IoU 0.50 of the detections scored >= that
   std::map<std::string, CategoryScores> per_category;
 };
 
 /// Number of IoU thresholds: t_k = (50 + 5 k) / 100 for k = 0..9, i.e. 0.50:0.05:0.95.
 inline constexpr int kMaskIouThresholds = 10;
+/// The precision at IoU 0.50 that defines MaskScores::confident_score.
+inline constexpr double kConfidentPrecision = 0.9;
 /// At most this many detections per image (the highest-scored ones) are evaluated.
 inline constexpr int kMaxDetectionsPerImage = 100;
 

@@ -56,6 +56,35 @@ InstanceMasks Renumber(const cv::Mat1w& labels, std::vector<OldIdStats> stats, i
 
 }  // namespace detail
 
+InstanceMasks DropCutByBorder(const InstanceMasks& masks, int max_border_px) {
+  if (max_border_px <= 0 || masks.labels.empty()) return masks;
+  const int w = masks.labels.cols, h = masks.labels.rows;
+  std::vector<int> border(static_cast<std::size_t>(masks.count()) + 1, 0);
+  for (int v = 0; v < h; ++v) {
+    const std::uint16_t* row = masks.labels[v];
+    const bool edge_row = v == 0 || v == h - 1;
+    for (int u = 0; u < w; ++u) {
+      if ((edge_row || u == 0 || u == w - 1) && row[u] > 0 && row[u] <= masks.count()) {
+        ++border[row[u]];
+      }
+    }
+  }
+  std::vector<std::uint16_t> new_id(border.size(), 0);
+  InstanceMasks out;
+  for (std::size_t id = 1; id < border.size(); ++id) {
+    if (border[id] >= max_border_px) continue;
+    out.scores.push_back(masks.scores[id - 1]);
+    new_id[id] = static_cast<std::uint16_t>(out.scores.size());
+  }
+  out.labels.create(masks.labels.size());
+  for (int v = 0; v < h; ++v) {
+    const std::uint16_t* in = masks.labels[v];
+    std::uint16_t* o = out.labels[v];
+    for (int u = 0; u < w; ++u) o[u] = in[u] < new_id.size() ? new_id[in[u]] : 0;
+  }
+  return out;
+}
+
 std::vector<InstanceInfo> DescribeInstances(const InstanceMasks& masks, const core::Scene& scene,
                                             const core::Camera& camera,
                                             const cv::Mat1f& deformability,

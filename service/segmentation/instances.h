@@ -34,6 +34,12 @@ struct InstanceMasks {
 template <class ScoreFn>
 InstanceMasks Compact(const cv::Mat1w& labels, int min_area_px, ScoreFn&& score_of_old_id);
 
+/// Drops instances cut by the image border (objects reaching out of the field of view, or a
+/// wrist camera's own gripper fingers): those with at least `max_border_px` pixels on the
+/// outermost rows and columns. Survivors keep their order and scores, renumbered densely.
+/// max_border_px <= 0 keeps everything.
+InstanceMasks DropCutByBorder(const InstanceMasks& masks, int max_border_px);
+
 /// What the service reports per instance (POST /v1/segmentation, docs/segmentation.md).
 struct InstanceInfo {
   int id = 0;

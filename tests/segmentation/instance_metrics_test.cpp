@@ -87,6 +87,35 @@ TEST(MaskEvaluator, PrecisionEnvelopeOverAnInterleavedRanking) {
   EXPECT_DOUBLE_EQ(s.ar, 1.0);
 }
 
+// The confident threshold: ranking TP 0.9, TP 0.8, FP 0.7, then nine TPs at 0.6 (ties: one cut
+// after all of them). Precision at the cuts: 1 (0.9), 1 (0.8), 2/3 (0.7), 11/12 >= 0.9 (0.6):
+// the lowest qualifying score is 0.6, with all 11 truths found (recall50 = 1). Without the nine,
+// the cut at 0.7 (2/3) fails and 0.8 is the threshold, recall 2/2.
+TEST(MaskEvaluator, ConfidentScoreIsTheLowestCutWithNinetyPercentPrecision) {
+  TruthImage truth{Blank(), {}, {}};
+  InstanceMasks predicted{Blank(), {0.9f, 0.8f, 0.7f}};
+  Fill(truth.labels, {0, 0, 4, 4}, 1);
+  Fill(truth.labels, {5, 0, 4, 4}, 2);
+  Fill(predicted.labels, {0, 0, 4, 4}, 1);
+  Fill(predicted.labels, {5, 0, 4, 4}, 2);
+  Fill(predicted.labels, {50, 30, 4, 4}, 3);
+  const MaskScores few = Evaluate(truth, predicted);
+  EXPECT_FLOAT_EQ(static_cast<float>(few.confident_score), 0.8f);
+  EXPECT_DOUBLE_EQ(few.confident_recall50, 1.0);
+  for (int i = 0; i < 9; ++i) {
+    Fill(truth.labels, {5 * i, 10, 4, 4}, 3 + i);
+    Fill(predicted.labels, {5 * i, 10, 4, 4}, 4 + i);
+    predicted.scores.push_back(0.6f);
+  }
+  const MaskScores many = Evaluate(truth, predicted);
+  EXPECT_FLOAT_EQ(static_cast<float>(many.confident_score), 0.6f);
+  EXPECT_DOUBLE_EQ(many.confident_recall50, 1.0);
+  EXPECT_DOUBLE_EQ(Evaluate(truth, InstanceMasks{Blank(), {}}).confident_score, -1.0);
+  InstanceMasks only_fp{Blank(), {0.5f}};
+  Fill(only_fp.labels, {50, 30, 4, 4}, 1);
+  EXPECT_DOUBLE_EQ(Evaluate(truth, only_fp).confident_score, -1.0);
+}
+
 // A (id 1) counts, B (id 2, 200 px) is ignored. Detections on B's left half (0.9) and right half
 // (0.8) lie inside B (intersection / detection area = 1): neither TP nor FP. The TP on A (0.5)
 // alone is ranked: AP = AR = 1, one truth instance. (Counted, B would make both FPs.)

@@ -71,5 +71,25 @@ TEST(DescribeInstances, RejectsMapsOfAnotherSize) {
                std::invalid_argument);
 }
 
+
+TEST(DropCutByBorder, DropsInstancesOnTheEdgeAndKeepsOrderAndScores) {
+  InstanceMasks m;
+  m.labels = cv::Mat1w(20, 30, std::uint16_t{0});
+  m.labels(cv::Rect(0, 5, 4, 6)) = 1;    // 6 px on the left column
+  m.labels(cv::Rect(10, 5, 5, 5)) = 2;   // inside
+  m.labels(cv::Rect(20, 17, 6, 3)) = 3;  // 6 px on the bottom row
+  m.labels(cv::Rect(5, 0, 2, 2)) = 4;    // 2 px on the top row: below the limit
+  m.scores = {0.9f, 0.8f, 0.7f, 0.6f};
+  const InstanceMasks out = DropCutByBorder(m, 5);
+  ASSERT_EQ(out.count(), 2);
+  EXPECT_EQ(out.labels(7, 12), 1);
+  EXPECT_EQ(out.labels(0, 5), 2);
+  EXPECT_EQ(out.labels(7, 1), 0);
+  EXPECT_EQ(out.labels(18, 22), 0);
+  EXPECT_FLOAT_EQ(out.scores[0], 0.8f);
+  EXPECT_FLOAT_EQ(out.scores[1], 0.6f);
+  EXPECT_EQ(DropCutByBorder(m, 0).count(), 4);
+}
+
 }  // namespace
 }  // namespace softgrasp::segmentation

@@ -28,10 +28,13 @@ const char* const kSegmentationUsage =
     "  deformability) on softgrasp-sim datasets. Writes MODEL, MODEL.ckpt (resumable),\n"
     "  MODEL_loss.csv/.png.\n"
     "       softgrasp-train evaluate-segmentation --model MODEL|none --data DIR[,DIR...]\n"
-    "                                    [--scenes N] [--train-data DIR[,DIR...]] [--threads T]\n"
+    "                                    [--scenes N] [--baseline-deformability D] [--threads T]\n"
+    "                                    [--foreground-threshold P] [--centre-threshold C]\n"
+    "                                    [--peak-window W] [--min-area A]\n"
     "  Prints JSON: mask AP (IoU 0.50:0.95), AP50, AP75, AR of the model and the PCL baseline\n"
     "  per dataset and over all, per object category, and the deformability map's RMSE (0-255)\n"
-    "  and MSSIM against a constant baseline.\n";
+    "  and MSSIM against a baseline (PCL masks filled with the constant D, default 0.503 = the\n"
+    "  training mean). The last four options override the model's grouping thresholds.\n";
 
 namespace {
 

@@ -60,6 +60,8 @@ json ScoresJson(const segmentation::MaskScores& s) {
           {"images", s.images},
           {"truth_instances", s.truth_instances},
           {"predicted_instances", s.predicted_instances},
+          {"confident_score_precision90", Num(s.confident_score)},
+          {"confident_recall50", Num(s.confident_recall50)},
           {"per_category", per_category}};
 }
 
@@ -144,6 +146,27 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
        baseline_deformability > 1)) {
     return Fail("--baseline-deformability must be in [0, 1]");
   }
+  models::GroupingParams grouping;
+  struct FloatFlag {
+    const char* name;
+    float* target;
+  };
+  for (const FloatFlag& f : {FloatFlag{"--foreground-threshold", &grouping.foreground_threshold},
+                             FloatFlag{"--centre-threshold", &grouping.centre_threshold}}) {
+    double x = 0;
+    if (args.Take(f.name, &value)) {
+      if (!ParseDouble(value, &x) || x < 0 || x > 1) return Fail(std::string(f.name) + " must be in [0, 1]");
+      *f.target = static_cast<float>(x);
+    }
+  }
+  if (args.Take("--peak-window", &value)) {
+    if (!ParseInt(value, 1, 99, &n) || n % 2 == 0) return Fail("--peak-window must be odd, 1..99");
+    grouping.peak_window_px = static_cast<int>(n);
+  }
+  if (args.Take("--min-area", &value)) {
+    if (!ParseInt(value, 0, 1000000, &n)) return Fail("--min-area must be in 0..1000000");
+    grouping.min_area_px = static_cast<int>(n);
+  }
   if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front());
   models::SetTorchThreads(threads);
   std::optional<models::SegmentationModel> model;
@@ -154,6 +177,11 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
   }
 
   json out = {{"model", model ? json(model->description()) : json(nullptr)},
+              {"grouping",
+               {{"foreground_threshold", grouping.foreground_threshold},
+                {"centre_threshold", grouping.centre_threshold},
+                {"peak_window_px", grouping.peak_window_px},
+                {"min_area_px", grouping.min_area_px}}},
               {"baseline_deformability", baseline_deformability},
               {"sets", json::object()}};
   SetResult all;
@@ -198,7 +226,7 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
       all.baseline_def.Add(def_truth, def_baseline, s.labels, s.category_of_id);
       if (model) {
         const auto t2 = Clock::now();
-        const models::SegmentationOutput m = model->SegmentScene(scene.value());
+        const models::SegmentationOutput m = model->SegmentScene(scene.value(), grouping);
         const auto t3 = Clock::now();
         r.model_ms.push_back(Ms(t2, t3));
         r.model.Add(truth, m.instances);

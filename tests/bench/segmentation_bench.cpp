@@ -1,5 +1,6 @@
-// The PCL baseline segmenter (service/segmentation/pcl_segmenter.h) on simulated 640x480 SR305
-// bin scenes with sensor noise: a usual bin (3-8 objects) and a dense one (15-30 objects), at
+// Segmentation on simulated 640x480 SR305 bin scenes with sensor noise, a usual bin (3-8 objects)
+// and a dense one (15-30 objects): the shipped model (network + grouping, models/segmentation.pt)
+// and, beside it in the same run, the PCL baseline (service/segmentation/pcl_segmenter.h) at
 // stride 1 (every pixel in the cloud, the default) and stride 2. Scenes are generated and
 // preprocessed once, outside the timed loop.
 #include <benchmark/benchmark.h>
@@ -8,6 +9,8 @@
 #include <stdexcept>
 
 #include "service/core/preprocess.h"
+#include "service/models/segmentation_model.h"
+#include "service/models/stiffness_model.h"
 #include "service/segmentation/pcl_segmenter.h"
 #include "sim/dataset/scene_gen.h"
 
@@ -58,6 +61,43 @@ void BM_SegmentPclDenseBin(benchmark::State& state) {
   Run(state, bin);
 }
 BENCHMARK(BM_SegmentPclDenseBin)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
+const models::SegmentationModel* ShippedModel() {
+  static const auto model = [] {
+    models::SetTorchThreads(2);
+    return models::SegmentationModel::Load(std::string(SOFTGRASP_SOURCE_DIR) +
+                                           "/models/segmentation.pt");
+  }();
+  return model.ok() ? &model.value() : nullptr;
+}
+
+void RunModel(benchmark::State& state, const Prepared& bin) {
+  const models::SegmentationModel* model = ShippedModel();
+  if (!model) {
+    state.SkipWithError("no shipped segmentation model");
+    return;
+  }
+  int instances = 0;
+  for (auto _ : state) {
+    const models::SegmentationOutput out = model->SegmentScene(bin.scene);
+    instances = out.instances.count();
+    benchmark::DoNotOptimize(instances);
+  }
+  state.counters["objects"] = bin.objects;
+  state.counters["instances"] = instances;
+}
+
+void BM_SegmentModelBin(benchmark::State& state) {
+  static const Prepared bin = MakeBin(3, 8, 101);
+  RunModel(state, bin);
+}
+BENCHMARK(BM_SegmentModelBin)->Unit(benchmark::kMillisecond);
+
+void BM_SegmentModelDenseBin(benchmark::State& state) {
+  static const Prepared bin = MakeBin(15, 30, 201);
+  RunModel(state, bin);
+}
+BENCHMARK(BM_SegmentModelDenseBin)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace softgrasp::segmentation
