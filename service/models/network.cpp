@@ -1,8 +1,11 @@
 #include "service/models/network.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include "service/models/stiffness_model.h"
 
 namespace softgrasp::models {
 namespace {
@@ -194,6 +197,16 @@ core::Result<LoadedGenerator> LoadGenerator(const std::filesystem::path& path) {
     return core::MakeError(core::ErrorCode::kUnprocessable,
                            "cannot read stiffness model " + path.string() + ": " + what, "model");
   }
+}
+
+std::optional<core::Error> HeightRangeMismatch(const std::filesystem::path& path,
+                                               double trained_range_m) {
+  if (std::abs(trained_range_m - kInputHeightRangeM) <= 1e-9) return std::nullopt;
+  return core::MakeError(core::ErrorCode::kUnprocessable,
+                         path.string() + ": trained with a height range of " +
+                             std::to_string(trained_range_m) + " m, this build normalises with " +
+                             std::to_string(kInputHeightRangeM) + " m",
+                         "model");
 }
 
 }  // namespace softgrasp::models

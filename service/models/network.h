@@ -4,7 +4,11 @@
 
 #include <torch/torch.h>
 
+#include <filesystem>
+#include <optional>
 #include <vector>
+
+#include "service/core/status.h"
 
 namespace softgrasp::models {
 
@@ -55,6 +59,11 @@ void InitWeights(torch::nn::Module& module);
 
 /// Number of trainable scalars.
 std::int64_t CountParameters(const torch::nn::Module& module);
+
+/// The error for a model file trained on heights normalised with another range than this build's
+/// kInputHeightRangeM (the network would see scaled heights); nullopt when they agree.
+std::optional<core::Error> HeightRangeMismatch(const std::filesystem::path& path,
+                                               double trained_range_m);
 
 }  // namespace softgrasp::models
 

@@ -27,14 +27,7 @@ core::Result<SegmentationModel> SegmentationModel::Load(const std::filesystem::p
   if (!loaded.ok()) return loaded.error();
   auto impl = std::make_unique<Impl>();
   impl->loaded = std::move(loaded.value());
-  if (std::abs(impl->loaded.height_range_m - kInputHeightRangeM) > 1e-9) {
-    return core::MakeError(core::ErrorCode::kUnprocessable,
-                           path.string() + ": trained with a height range of " +
-                               std::to_string(impl->loaded.height_range_m) +
-                               " m, this build normalises with " +
-                               std::to_string(kInputHeightRangeM) + " m",
-                           "model");
-  }
+  if (auto mismatch = HeightRangeMismatch(path, impl->loaded.height_range_m)) return *mismatch;
   const SegmentationNetConfig& c = impl->loaded.config;
   impl->parameters = CountParameters(*impl->loaded.net);
   impl->description = "segmentation U-Net " + std::to_string(c.width) + "x" +
