@@ -171,9 +171,10 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
   const FgeParams& fp = params.fge;
   fge_detail::CheckInputs(camera, gripper, fp);
   if (!(params.centre_weight >= 0) || params.candidate_step_px < 1 ||
-      params.candidate_step_px > 16) {
+      params.candidate_step_px > 16 || params.max_slice_batches < 0) {
     throw std::invalid_argument(
-        "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16");
+        "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16, "
+        "max_slice_batches >= 0");
   }
   if (scene.height_m.empty()) return {};
   if (stiffness_map.size() != scene.height_m.size()) {
@@ -194,7 +195,11 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
   std::vector<Grasp> grasps;
   // num_height_steps slices at a time, from the top down, until top_k grasps are found; the
   // grasps of a higher batch rank before those of a lower one.
-  const auto batches = fge_detail::SliceBatches(search.slices.size(), fp);
+  auto batches = fge_detail::SliceBatches(search.slices.size(), fp);
+  if (params.max_slice_batches > 0 &&
+      batches.size() > static_cast<std::size_t>(params.max_slice_batches)) {
+    batches.resize(static_cast<std::size_t>(params.max_slice_batches));
+  }
   for (std::size_t b = 0; b < batches.size(); ++b) {
     const auto [first, last] = batches[b];
     const std::vector<Slice> batch(search.slices.begin() + static_cast<std::ptrdiff_t>(first),

@@ -1,0 +1,246 @@
+#include "service/core/fge_deformability.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <string>
+
+#include "service/core/fge_stiffness.h"
+
+namespace softgrasp::core {
+namespace {
+
+// The top of an instance: this quantile of its heights (a few flying pixels do not set it).
+constexpr double kTopQuantile = 0.98;
+
+void Require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument("DeformabilityParams: " + what);
+}
+
+void CheckParams(const DeformabilityParams& p, const Gripper& gripper) {
+  Require(p.min_target_area_px >= 0 && std::isfinite(p.min_target_area_px),
+          "min_target_area_px (K) must be >= 0");
+  Require(p.slice_step_m > 0 && p.slice_step_m <= gripper.finger_length_mm * 1e-3,
+          "slice_step_m (L) must be > 0 and not exceed the finger length");
+  Require(p.num_slices >= 1 && p.num_slices <= 40, "num_slices (M) must be in 1..40");
+  Require(p.min_score >= 0 && p.min_score <= 1, "min_score (R) must be in [0, 1]");
+  Require(p.target_id >= 0, "target_id must be >= 0");
+  Require(!p.opening_fractions.empty(), "opening_fractions must not be empty");
+  for (double f : p.opening_fractions) {
+    Require(f > 0 && f <= 1, "opening_fractions must be in (0, 1]");
+  }
+  Require(std::is_sorted(p.opening_fractions.begin(), p.opening_fractions.end()),
+          "opening_fractions must be in increasing order");
+  Require(p.stiff_part_fraction >= 0 && p.stiff_part_fraction <= 1,
+          "stiff_part_fraction must be in [0, 1]");
+  Require(p.soft_obstacle_threshold >= 0 && std::isfinite(p.soft_obstacle_threshold),
+          "soft_obstacle_threshold must be >= 0");
+  Require(p.max_press_depth_m >= 0 && p.max_press_depth_m <= 1,
+          "max_press_depth_m must be in [0, 1]");
+  Require(p.tie_tolerance >= 0 && std::isfinite(p.tie_tolerance), "tie_tolerance must be >= 0");
+  Require(p.max_targets >= 1, "max_targets must be >= 1");
+  Require(p.centre_weight >= 0 && std::isfinite(p.centre_weight), "centre_weight must be >= 0");
+}
+
+void CheckMaps(const Scene& scene, const ObjectMaps& objects) {
+  const cv::Size size = scene.height_m.size();
+  if (objects.labels.size() != size || objects.deformability.size() != size) {
+    throw std::invalid_argument(
+        "DetectGraspsDeformability: labels and deformability must have the scene's size");
+  }
+  double max_id = 0;
+  if (!objects.labels.empty()) cv::minMaxLoc(objects.labels, nullptr, &max_id);
+  if (static_cast<std::size_t>(max_id) > objects.scores.size()) {
+    throw std::invalid_argument("DetectGraspsDeformability: label " +
+                                std::to_string(static_cast<int>(max_id)) + " has no score");
+  }
+}
+
+/// 1 - deformability clamped to [0, 1]; NaN counts as the softest.
+cv::Mat1f StiffnessOf(const cv::Mat1f& deformability) {
+  cv::Mat1f stiffness = 1.0f - deformability;
+  cv::patchNaNs(stiffness, 0.0);
+  cv::min(cv::max(stiffness, 0.0f), 1.0f, stiffness);
+  return stiffness;
+}
+
+/// Target pixels the fingers may touch: in the mask, in scene.contact_allowed, and at least
+/// stiff_part_fraction of the target's maximum stiffness.
+cv::Mat1b ContactPart(const Scene& scene, const cv::Mat1b& target, const cv::Mat1f& stiffness,
+                      double stiff_part_fraction) {
+  cv::Mat1b allowed = target.clone();
+  if (!scene.contact_allowed.empty()) allowed &= scene.contact_allowed;
+  double max_stiffness = 0;
+  cv::minMaxLoc(stiffness, nullptr, &max_stiffness, nullptr, nullptr, allowed);
+  allowed &= stiffness >= static_cast<float>(stiff_part_fraction * max_stiffness);
+  return allowed;
+}
+
+struct TargetStats {
+  int id = 0;
+  double top_m = 0;
+  double mean_deformability = 0;
+};
+
+double Quantile(std::vector<float> values, double q) {
+  const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+/// The scene seen by the planner for one target: contact only on the target's stiff part; soft
+/// neighbours lowered by the press depth (a finger may push that far into them).
+Scene TargetScene(const Scene& scene, const ObjectMaps& objects, int target_id,
+                  const cv::Mat1f& stiffness, const DeformabilityParams& params) {
+  Scene out = scene;
+  const cv::Mat1b target = objects.labels == target_id;
+  out.contact_allowed = ContactPart(scene, target, stiffness, params.stiff_part_fraction);
+  const cv::Mat1b soft = (objects.labels != 0) & ~target &
+                         (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
+  if (params.max_press_depth_m > 0 && cv::countNonZero(soft) > 0) {
+    out.height_m = scene.height_m.clone();
+    cv::Mat1f pressed = cv::max(scene.height_m - static_cast<float>(params.max_press_depth_m), 0.0f);
+    pressed.copyTo(out.height_m, soft);
+  }
+  return out;
+}
+
+/// Soft neighbours under the finger footprints above the fingertips (pixel-centre rule).
+void FillPressed(const Scene& scene, const cv::Mat1w& labels, int target_id,
+                 DeformabilityGrasp* out) {
+  const Grasp& g = out->grasp;
+  const double inner = g.opening_px / 2;
+  const double outer = inner + g.finger_thickness_px;
+  const double half_w = g.finger_width_px / 2;
+  const int reach = static_cast<int>(std::ceil(std::hypot(outer, half_w))) + 1;
+  const double cs = std::cos(g.angle_rad);
+  const double sn = std::sin(g.angle_rad);
+  const int u0 = static_cast<int>(std::lround(g.center_u_px));
+  const int v0 = static_cast<int>(std::lround(g.center_v_px));
+  std::set<int> ids;
+  double depth = 0;
+  for (int dv = -reach; dv <= reach; ++dv) {
+    for (int du = -reach; du <= reach; ++du) {
+      const double a = std::abs(du * cs + dv * sn);
+      const double b = std::abs(-du * sn + dv * cs);
+      if (a <= inner || a > outer || b > half_w) continue;
+      const int u = u0 + du;
+      const int v = v0 + dv;
+      if (u < 0 || v < 0 || u >= labels.cols || v >= labels.rows) continue;
+      const int id = labels(v, u);
+      const double above = scene.height_m(v, u) - g.grasp_height_m;
+      if (id == 0 || id == target_id || !(above > 0)) continue;
+      ids.insert(id);
+      depth = std::max(depth, above);
+    }
+  }
+  out->pressed_ids.assign(ids.begin(), ids.end());
+  out->press_depth_m = depth;
+}
+
+}  // namespace
+
+const char* TargetPolicyName(TargetPolicy policy) {
+  return policy == TargetPolicy::kHighest ? "highest" : "least_deformable";
+}
+
+std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
+                              const DeformabilityParams& params) {
+  CheckMaps(scene, objects);
+  if (params.target_id > 0) return {params.target_id};
+  const cv::Mat1f stiffness = StiffnessOf(objects.deformability);
+  std::map<int, std::vector<float>> heights;
+  for (int v = 0; v < objects.labels.rows; ++v) {
+    for (int u = 0; u < objects.labels.cols; ++u) {
+      const int id = objects.labels(v, u);
+      if (id == 0 || objects.scores[static_cast<std::size_t>(id - 1)] < params.min_score) continue;
+      if (!scene.contact_allowed.empty() && scene.contact_allowed(v, u) == 0) continue;
+      heights[id].push_back(scene.height_m(v, u));
+    }
+  }
+  std::vector<TargetStats> stats;
+  for (const auto& [id, h] : heights) {
+    if (static_cast<double>(h.size()) < std::max(1.0, params.min_target_area_px)) continue;
+    TargetStats s;
+    s.id = id;
+    s.top_m = Quantile(h, kTopQuantile);
+    const cv::Mat1b part =
+        ContactPart(scene, objects.labels == id, stiffness, params.stiff_part_fraction);
+    s.mean_deformability = 1.0 - cv::mean(stiffness, part)[0];
+    stats.push_back(s);
+  }
+  const auto higher = [](const TargetStats& a, const TargetStats& b) {
+    return a.top_m != b.top_m ? a.top_m > b.top_m : a.id < b.id;
+  };
+  if (params.policy == TargetPolicy::kHighest || stats.empty()) {
+    std::sort(stats.begin(), stats.end(), higher);
+  } else {
+    // Bands of tie_tolerance from the least deformable; the highest first within a band.
+    double least = 1;
+    for (const auto& s : stats) least = std::min(least, s.mean_deformability);
+    const auto band = [&](const TargetStats& s) {
+      return params.tie_tolerance > 0
+                 ? static_cast<int>(std::floor((s.mean_deformability - least) / params.tie_tolerance))
+                 : (s.mean_deformability > least ? 1 : 0);
+    };
+    std::sort(stats.begin(), stats.end(), [&](const TargetStats& a, const TargetStats& b) {
+      const int ba = band(a), bb = band(b);
+      if (ba != bb) return ba < bb;
+      if (params.tie_tolerance == 0 && a.mean_deformability != b.mean_deformability) {
+        return a.mean_deformability < b.mean_deformability;
+      }
+      return higher(a, b);
+    });
+  }
+  std::vector<int> ids;
+  for (const auto& s : stats) ids.push_back(s.id);
+  return ids;
+}
+
+DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& camera,
+                                              const ObjectMaps& objects, const Gripper& gripper,
+                                              const DeformabilityParams& params) {
+  CheckParams(params, gripper);
+  DeformabilityResult result;
+  if (scene.height_m.empty()) return result;
+  const std::vector<int> order = OrderTargets(scene, objects, params);
+  const cv::Mat1f stiffness = StiffnessOf(objects.deformability);
+
+  StiffnessFgeParams sp;
+  sp.fge = params.fge;
+  sp.fge.height_step_m = params.slice_step_m;
+  sp.fge.grip_depth_m = params.slice_step_m;
+  sp.fge.num_height_steps = params.num_slices;
+  sp.fge.min_object_area_px = params.min_target_area_px;
+  sp.centre_weight = params.centre_weight;
+  sp.max_slice_batches = 1;
+
+  for (int id : order) {
+    if (static_cast<int>(result.tried_ids.size()) >= params.max_targets) break;
+    result.tried_ids.push_back(id);
+    const Scene target_scene = TargetScene(scene, objects, id, stiffness, params);
+    if (cv::countNonZero(target_scene.contact_allowed) == 0) continue;
+    for (double fraction : params.opening_fractions) {
+      Gripper opened = gripper;
+      opened.opening_stroke_mm = gripper.opening_stroke_mm * fraction;
+      const auto grasps = DetectGraspsStiffness(target_scene, camera, stiffness, opened, sp);
+      if (grasps.empty()) continue;
+      result.target_id = id;
+      for (const Grasp& g : grasps) {
+        DeformabilityGrasp dg;
+        dg.grasp = g;
+        dg.instance_id = id;
+        dg.mean_deformability = 1.0 - g.mean_stiffness;
+        dg.opening_fraction = fraction;
+        FillPressed(scene, objects.labels, id, &dg);
+        result.grasps.push_back(std::move(dg));
+      }
+      return result;
+    }
+  }
+  return result;
+}
+
+}  // namespace softgrasp::core

@@ -1,0 +1,89 @@
+#pragma once
+/// Deformability-aware grasping (thesis §5.2.4, Algorithm 1, §5.3.3-5.3.4): choose one target
+/// object among the confident instances, search Algorithm 1's height slices on it for the
+/// closing region with the lowest mean deformability, with the smallest opening that works,
+/// never on the target's soft parts, pressing soft neighbours aside where needed.
+/// See docs/deformability.md.
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "service/core/depth.h"
+#include "service/core/fge.h"
+#include "service/core/grasp.h"
+#include "service/core/preprocess.h"
+
+namespace softgrasp::core {
+
+/// Which confident instance becomes the target.
+enum class TargetPolicy {
+  kHighest,          ///< the thesis: the one whose top is highest
+  kLeastDeformable,  ///< the one least likely to be damaged; ties go to the highest
+};
+const char* TargetPolicyName(TargetPolicy policy);  ///< "highest" | "least_deformable"
+
+/// What a segmenter says about a scene: labels (0 = none, ids 1..N), scores[id - 1] in [0, 1],
+/// and a deformability map in [0, 1] (0 rigid ... 1 very soft), all of the scene's size.
+struct ObjectMaps {
+  cv::Mat1w labels;
+  std::vector<float> scores;
+  cv::Mat1f deformability;
+};
+
+struct DeformabilityParams {
+  /// Angles, top_k, NMS, seams, floor clearance as for classic FGE. Its height_step_m,
+  /// num_height_steps, grip_depth_m and min_object_area_px are replaced by L, M, L and K.
+  FgeParams fge;
+  double min_target_area_px = 100;  ///< K: the first slice is where the target's area exceeds it
+  double slice_step_m = 0.010;      ///< L: slices this far apart; the collision image is the next
+                                    ///< slice down, so the fingertips go L below the contact
+  int num_slices = 5;               ///< M: slices searched from the first one down
+  double min_score = 0.27;          ///< R: instances scoring below are never targets
+  TargetPolicy policy = TargetPolicy::kHighest;
+  int target_id = 0;                ///< > 0: this instance, whatever its score (wins over policy)
+  /// Pre-grasp openings tried, as fractions of the stroke, in increasing order; the smallest
+  /// that gives a grasp is kept.
+  std::vector<double> opening_fractions{0.5, 0.75, 1.0};
+  /// Partially deformable objects: target pixels whose stiffness (1 - deformability) is below
+  /// this fraction of the target's maximum are never contact (they stay obstacles).
+  double stiff_part_fraction = 0.5;
+  /// Neighbour pixels softer than this (deformability) are not collisions up to
+  /// max_press_depth_m: a finger may press them aside. > 1 disables pushing.
+  double soft_obstacle_threshold = 0.5;
+  double max_press_depth_m = 0.02;
+  /// kLeastDeformable: instances whose mean deformability is within this of the least are ties.
+  double tie_tolerance = 0.05;
+  int max_targets = 8;  ///< candidate targets planned at most, in policy order
+  double centre_weight = 0.05;  ///< as StiffnessFgeParams::centre_weight
+};
+
+/// A grasp on the target with what the strategy knows about it.
+struct DeformabilityGrasp {
+  Grasp grasp;  ///< mean_stiffness = 1 - mean_deformability
+  int instance_id = 0;
+  double mean_deformability = 0;  ///< over the contact surface in the closing region
+  double opening_fraction = 1;    ///< of the stroke (grasp.opening_m is the opening itself)
+  std::vector<int> pressed_ids;   ///< soft neighbours under the finger footprints, ascending
+  double press_depth_m = 0;       ///< deepest press into them (0 = none)
+};
+
+struct DeformabilityResult {
+  int target_id = 0;          ///< 0 when no target gave a grasp
+  std::vector<int> tried_ids;  ///< targets planned, in order (the last gave the grasps)
+  std::vector<DeformabilityGrasp> grasps;  ///< best first, all on target_id
+};
+
+/// The candidate targets in policy order (params.target_id alone when set): confident
+/// (score >= min_score) instances of at least min_target_area_px pixels in
+/// scene.contact_allowed. Top = the 98th percentile of the instance's heights.
+std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
+                              const DeformabilityParams& params);
+
+/// Plans on the targets of OrderTargets (at most max_targets) until one gives grasps.
+/// Throws std::invalid_argument on maps of another size, scores not matching the labels' ids,
+/// or parameters out of range (and as DetectGraspsFge does).
+DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& camera,
+                                              const ObjectMaps& objects, const Gripper& gripper,
+                                              const DeformabilityParams& params = {});
+
+}  // namespace softgrasp::core

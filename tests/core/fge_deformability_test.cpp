@@ -1,0 +1,303 @@
+#include "service/core/fge_deformability.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+#include <stdexcept>
+
+#include "tests/support/grasp_footprint.h"
+#include "tests/support/synthetic_scene.h"
+
+namespace softgrasp::core {
+namespace {
+
+using testing::Box;
+using testing::RenderScene;
+using testing::SceneSpec;
+
+constexpr double kFootprintShrinkPx = 1.0;
+
+struct Prepared {
+  testing::SyntheticScene synth;
+  Scene scene;
+  ObjectMaps objects;
+};
+
+// `instance_of_box`: synthetic box id -> instance id (several boxes may form one object);
+// `deformability_of_box`: synthetic box id -> deformability; `scores` per instance id - 1.
+Prepared Make(const SceneSpec& spec, const std::map<int, int>& instance_of_box,
+              const std::map<int, float>& deformability_of_box, std::vector<float> scores) {
+  Prepared s{RenderScene(spec), {}, {}};
+  auto scene = Preprocess(s.synth.depth, s.synth.camera);
+  if (!scene.ok()) throw std::runtime_error(scene.error().message);
+  s.scene = std::move(scene).value();
+  s.objects.labels = cv::Mat1w(s.synth.object_id.size(), 0);
+  s.objects.deformability = cv::Mat1f(s.synth.object_id.size(), 0.0f);
+  s.objects.scores = std::move(scores);
+  for (int v = 0; v < s.synth.object_id.rows; ++v) {
+    for (int u = 0; u < s.synth.object_id.cols; ++u) {
+      const int box = s.synth.object_id(v, u);
+      if (box <= 0) continue;
+      s.objects.labels(v, u) = static_cast<std::uint16_t>(instance_of_box.at(box));
+      s.objects.deformability(v, u) = deformability_of_box.at(box);
+    }
+  }
+  return s;
+}
+
+int BoxAtCenter(const Prepared& s, const Grasp& g) {
+  return s.synth.object_id(static_cast<int>(std::lround(g.center_v_px)),
+                           static_cast<int>(std::lround(g.center_u_px)));
+}
+
+// Synthetic boxes with a surface above the fingertips inside the closing region.
+std::set<int> BoxesBetweenFingers(const Prepared& s, const Grasp& g) {
+  const auto fp = testing::RasteriseGrasp(g, s.synth.object_id.size(), kFootprintShrinkPx);
+  std::set<int> ids;
+  for (int v = 0; v < fp.closing.rows; ++v) {
+    for (int u = 0; u < fp.closing.cols; ++u) {
+      if (fp.closing(v, u) && s.synth.height_m(v, u) > g.grasp_height_m) {
+        ids.insert(s.synth.object_id(v, u));
+      }
+    }
+  }
+  return ids;
+}
+
+// Synthetic boxes reaching above the fingertips under the finger footprints.
+std::set<int> BoxesUnderFingers(const Prepared& s, const Grasp& g) {
+  const auto fp = testing::RasteriseGrasp(g, s.synth.object_id.size(), kFootprintShrinkPx);
+  std::set<int> ids;
+  for (int v = 0; v < fp.fingers.rows; ++v) {
+    for (int u = 0; u < fp.fingers.cols; ++u) {
+      if (fp.fingers(v, u) && s.synth.height_m(v, u) > g.grasp_height_m) {
+        ids.insert(s.synth.object_id(v, u));
+      }
+    }
+  }
+  return ids;
+}
+
+// A brush lying on the table: a hard handle (box 1, 20 x 100 mm, 25 mm high) and a soft,
+// taller head (box 2, 45 x 45 mm, 45 mm high) form instance 1.
+SceneSpec Brush() {
+  SceneSpec spec;
+  spec.boxes = {Box{-0.04, 0.0, 0.100, 0.020, 0.025, 0.0, 1},
+                Box{0.0325, 0.0, 0.045, 0.045, 0.045, 0.0, 2}};
+  return spec;
+}
+
+TEST(DetectGraspsDeformability, GraspsTheHardHandleOfABrush) {
+  const Prepared s = Make(Brush(), {{1, 1}, {2, 1}}, {{1, 0.05f}, {2, 0.9f}}, {0.9f});
+  const auto result = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{});
+  ASSERT_EQ(result.target_id, 1);
+  ASSERT_FALSE(result.grasps.empty());
+  for (const DeformabilityGrasp& dg : result.grasps) {
+    EXPECT_EQ(dg.instance_id, 1);
+    EXPECT_EQ(BoxAtCenter(s, dg.grasp), 1) << "grasp at " << dg.grasp.center_u_px;
+    // The soft head is never contact: nothing of it between the fingers.
+    EXPECT_EQ(BoxesBetweenFingers(s, dg.grasp).count(2), 0u);
+    EXPECT_NEAR(dg.mean_deformability, 0.05, 1e-4);
+    EXPECT_NEAR(dg.grasp.mean_stiffness, 0.95, 1e-4);
+  }
+  // The head is the target's top, so the first slices see the head alone; the handle is found
+  // lower, inside the M slices.
+  EXPECT_GT(result.grasps.front().grasp.height_step, 0);
+  EXPECT_LT(result.grasps.front().grasp.contact_height_m, 0.025);
+}
+
+TEST(DetectGraspsDeformability, WithoutThePartialRuleTheSoftHeadIsTouched) {
+  // The same brush with the rule off (fraction 0): the planner starts at the head's top and
+  // grasps the head, which is the thesis' failure case for plain FGE.
+  const Prepared s = Make(Brush(), {{1, 1}, {2, 1}}, {{1, 0.05f}, {2, 0.9f}}, {0.9f});
+  DeformabilityParams params;
+  params.stiff_part_fraction = 0;
+  params.num_slices = 1;  // the head's slice only
+  const auto result =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  ASSERT_FALSE(result.grasps.empty());
+  EXPECT_EQ(BoxAtCenter(s, result.grasps.front().grasp), 2);
+  EXPECT_GT(result.grasps.front().mean_deformability, 0.8);
+}
+
+// A 30 x 70 mm box (instance 1, rigid) between two sponges (instances 2 and 3, 35 mm high)
+// 5 mm away on both long sides: the fingers fit only by pressing the sponges.
+SceneSpec BoxBetweenSponges() {
+  SceneSpec spec;
+  spec.boxes = {Box{0.0, 0.0, 0.030, 0.070, 0.040, 0.0, 1},
+                Box{-0.040, 0.0, 0.040, 0.090, 0.035, 0.0, 2},
+                Box{0.040, 0.0, 0.040, 0.090, 0.035, 0.0, 3}};
+  return spec;
+}
+
+TEST(DetectGraspsDeformability, PressesSoftSpongesAsideToReachABox) {
+  const Prepared s = Make(BoxBetweenSponges(), {{1, 1}, {2, 2}, {3, 3}},
+                          {{1, 0.05f}, {2, 0.9f}, {3, 0.9f}}, {0.9f, 0.9f, 0.9f});
+  DeformabilityParams params;
+  params.target_id = 1;
+  const auto result =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  ASSERT_EQ(result.target_id, 1);
+  ASSERT_FALSE(result.grasps.empty());
+  const DeformabilityGrasp& best = result.grasps.front();
+  EXPECT_EQ(BoxAtCenter(s, best.grasp), 1);
+  EXPECT_EQ(best.pressed_ids, (std::vector<int>{2, 3}));
+  // The fingertips go down to at most the press depth below the sponges' tops.
+  EXPECT_GT(best.press_depth_m, 0.0);
+  EXPECT_LE(best.press_depth_m, params.max_press_depth_m + 1e-3);
+  EXPECT_NEAR(best.press_depth_m, 0.035 - best.grasp.grasp_height_m, 2e-3);
+  EXPECT_EQ(BoxesUnderFingers(s, best.grasp), (std::set<int>{2, 3}));
+  // Across the box (closing axis along u), the only direction within the stroke.
+  EXPECT_LT(std::abs(std::sin(best.grasp.angle_rad)), 0.25);
+
+  // Pushing off, or rigid neighbours: no grasp at all.
+  params.soft_obstacle_threshold = 1.5;
+  EXPECT_TRUE(
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params).grasps.empty());
+  const Prepared rigid = Make(BoxBetweenSponges(), {{1, 1}, {2, 2}, {3, 3}},
+                              {{1, 0.05f}, {2, 0.1f}, {3, 0.1f}}, {0.9f, 0.9f, 0.9f});
+  params.soft_obstacle_threshold = 0.5;
+  EXPECT_TRUE(DetectGraspsDeformability(rigid.scene, rigid.synth.camera, rigid.objects, Gripper{},
+                                        params)
+                  .grasps.empty());
+  // A press depth too shallow for the slices: no grasp either.
+  params.max_press_depth_m = 0.002;
+  EXPECT_TRUE(
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params).grasps.empty());
+}
+
+// One object of two widths: a narrow arm (box 1, 18 mm across) and a wide one (box 2, 40 mm),
+// both 70 mm long (too long for the 50 mm stroke) and equally rigid.
+SceneSpec TwoWidths() {
+  SceneSpec spec;
+  spec.boxes = {Box{-0.05, 0.0, 0.018, 0.070, 0.040, 0.0, 1},
+                Box{0.05, 0.0, 0.040, 0.070, 0.040, 0.0, 2}};
+  return spec;
+}
+
+TEST(DetectGraspsDeformability, TheSmallestOpeningThatWorksWins) {
+  const Prepared s = Make(TwoWidths(), {{1, 1}, {2, 1}}, {{1, 0.1f}, {2, 0.1f}}, {0.9f});
+  const Gripper gripper;
+  const auto result = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, gripper);
+  ASSERT_FALSE(result.grasps.empty());
+  for (const DeformabilityGrasp& dg : result.grasps) {
+    EXPECT_DOUBLE_EQ(dg.opening_fraction, 0.5);
+    EXPECT_NEAR(dg.grasp.opening_m, 0.025, 1e-12);
+    EXPECT_EQ(BoxAtCenter(s, dg.grasp), 1);
+  }
+  // The wide arm alone as the target (the narrow one another object): neither 25 nor 37.5 mm
+  // fit around its 40 mm, the full stroke does.
+  const Prepared apart = Make(TwoWidths(), {{1, 2}, {2, 1}}, {{1, 0.1f}, {2, 0.1f}}, {0.9f, 0.9f});
+  DeformabilityParams wide;
+  wide.target_id = 1;
+  const auto full = DetectGraspsDeformability(apart.scene, apart.synth.camera, apart.objects,
+                                              gripper, wide);
+  ASSERT_FALSE(full.grasps.empty());
+  for (const auto& dg : full.grasps) {
+    EXPECT_DOUBLE_EQ(dg.opening_fraction, 1.0);
+    EXPECT_NEAR(dg.grasp.opening_m, 0.050, 1e-12);
+    EXPECT_EQ(BoxAtCenter(apart, dg.grasp), 2);
+  }
+}
+
+// Two free boxes: a tall soft one (instance 1, 60 mm) and a lower rigid one (instance 2, 40 mm).
+SceneSpec TallSoftLowHard() {
+  SceneSpec spec;
+  spec.boxes = {Box{-0.07, 0.0, 0.030, 0.060, 0.060, 0.0, 1},
+                Box{0.07, 0.0, 0.030, 0.060, 0.040, 0.0, 2}};
+  return spec;
+}
+
+TEST(DetectGraspsDeformability, TargetPolicies) {
+  const Prepared s =
+      Make(TallSoftLowHard(), {{1, 1}, {2, 2}}, {{1, 0.8f}, {2, 0.1f}}, {0.9f, 0.9f});
+  DeformabilityParams params;
+  EXPECT_EQ(OrderTargets(s.scene, s.objects, params), (std::vector<int>{1, 2}));
+  auto result = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(result.target_id, 1);
+  EXPECT_EQ(result.tried_ids, (std::vector<int>{1}));
+
+  params.policy = TargetPolicy::kLeastDeformable;
+  EXPECT_EQ(OrderTargets(s.scene, s.objects, params), (std::vector<int>{2, 1}));
+  result = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(result.target_id, 2);
+  ASSERT_FALSE(result.grasps.empty());
+  EXPECT_NEAR(result.grasps.front().mean_deformability, 0.1, 1e-4);
+
+  // Within the tie tolerance the highest wins.
+  const Prepared close =
+      Make(TallSoftLowHard(), {{1, 1}, {2, 2}}, {{1, 0.13f}, {2, 0.1f}}, {0.9f, 0.9f});
+  EXPECT_EQ(OrderTargets(close.scene, close.objects, params), (std::vector<int>{1, 2}));
+
+  // An explicit target wins over the policy.
+  params.target_id = 1;
+  EXPECT_EQ(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params)
+                .target_id,
+            1);
+}
+
+TEST(DetectGraspsDeformability, UnconfidentInstancesAreNeverTargets) {
+  const Prepared s =
+      Make(TallSoftLowHard(), {{1, 1}, {2, 2}}, {{1, 0.1f}, {2, 0.1f}}, {0.1f, 0.9f});
+  DeformabilityParams params;  // R = 0.27
+  EXPECT_EQ(OrderTargets(s.scene, s.objects, params), (std::vector<int>{2}));
+  const auto result =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(result.target_id, 2);
+  params.min_score = 0.95;
+  EXPECT_TRUE(OrderTargets(s.scene, s.objects, params).empty());
+  EXPECT_EQ(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params)
+                .target_id,
+            0);
+}
+
+TEST(DetectGraspsDeformability, TheNextTargetIsTriedWhenTheFirstHasNoGrasp) {
+  // The highest box is 80 mm wide in both directions: nothing grasps it; the next one is used.
+  SceneSpec spec;
+  spec.boxes = {Box{-0.08, 0.0, 0.080, 0.080, 0.070, 0.0, 1},
+                Box{0.08, 0.0, 0.030, 0.060, 0.040, 0.0, 2}};
+  const Prepared s = Make(spec, {{1, 1}, {2, 2}}, {{1, 0.1f}, {2, 0.1f}}, {0.9f, 0.9f});
+  const auto result = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{});
+  EXPECT_EQ(result.tried_ids, (std::vector<int>{1, 2}));
+  EXPECT_EQ(result.target_id, 2);
+  DeformabilityParams one;
+  one.max_targets = 1;
+  EXPECT_EQ(
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, one).target_id, 0);
+}
+
+TEST(DetectGraspsDeformability, BadInputThrows) {
+  const Prepared s =
+      Make(TallSoftLowHard(), {{1, 1}, {2, 2}}, {{1, 0.1f}, {2, 0.1f}}, {0.9f, 0.9f});
+  ObjectMaps wrong = s.objects;
+  wrong.deformability = cv::Mat1f(10, 10, 0.f);
+  EXPECT_THROW(DetectGraspsDeformability(s.scene, s.synth.camera, wrong, Gripper{}),
+               std::invalid_argument);
+  wrong = s.objects;
+  wrong.scores = {0.9f};  // id 2 has no score
+  EXPECT_THROW(DetectGraspsDeformability(s.scene, s.synth.camera, wrong, Gripper{}),
+               std::invalid_argument);
+  const auto bad = [&](auto change) {
+    DeformabilityParams p;
+    change(p);
+    EXPECT_THROW(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, p),
+                 std::invalid_argument);
+  };
+  bad([](DeformabilityParams& p) { p.slice_step_m = 0; });
+  bad([](DeformabilityParams& p) { p.slice_step_m = 0.05; });  // longer than the fingers
+  bad([](DeformabilityParams& p) { p.num_slices = 0; });
+  bad([](DeformabilityParams& p) { p.min_score = 1.5; });
+  bad([](DeformabilityParams& p) { p.opening_fractions = {}; });
+  bad([](DeformabilityParams& p) { p.opening_fractions = {1.0, 0.5}; });
+  bad([](DeformabilityParams& p) { p.opening_fractions = {0.0}; });
+  bad([](DeformabilityParams& p) { p.stiff_part_fraction = -0.1; });
+  bad([](DeformabilityParams& p) { p.max_press_depth_m = -1; });
+  bad([](DeformabilityParams& p) { p.min_target_area_px = std::nan(""); });
+  bad([](DeformabilityParams& p) { p.max_targets = 0; });
+  bad([](DeformabilityParams& p) { p.fge.num_angles = 0; });
+}
+
+}  // namespace
+}  // namespace softgrasp::core
