@@ -6,6 +6,7 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "service/core/fge_stiffness.h"
 
@@ -31,6 +32,8 @@ void CheckParams(const DeformabilityParams& p, const Gripper& gripper) {
   for (double f : p.opening_fractions) {
     Require(f > 0 && f <= 1, "opening_fractions must be in (0, 1]");
   }
+  Require(p.min_graspability >= 0 && p.min_graspability <= 1,
+          "min_graspability must be in [0, 1]");
   Require(std::is_sorted(p.opening_fractions.begin(), p.opening_fractions.end()),
           "opening_fractions must be in increasing order");
   Require(p.stiff_part_fraction >= 0 && p.stiff_part_fraction <= 1,
@@ -42,6 +45,8 @@ void CheckParams(const DeformabilityParams& p, const Gripper& gripper) {
   Require(p.tie_tolerance >= 0 && std::isfinite(p.tie_tolerance), "tie_tolerance must be >= 0");
   Require(p.max_targets >= 1, "max_targets must be >= 1");
   Require(p.centre_weight >= 0 && std::isfinite(p.centre_weight), "centre_weight must be >= 0");
+  Require(p.deformability_step >= 0 && p.deformability_step <= 1,
+          "deformability_step must be in [0, 1]");
 }
 
 void CheckMaps(const Scene& scene, const ObjectMaps& objects) {
@@ -215,6 +220,7 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   sp.fge.num_height_steps = params.num_slices;
   sp.fge.min_object_area_px = params.min_target_area_px;
   sp.centre_weight = params.centre_weight;
+  sp.key_step = params.deformability_step;
   sp.max_slice_batches = 1;
 
   for (int id : order) {
@@ -222,10 +228,14 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
     result.tried_ids.push_back(id);
     const Scene target_scene = TargetScene(scene, objects, id, stiffness, params);
     if (cv::countNonZero(target_scene.contact_allowed) == 0) continue;
-    for (double fraction : params.opening_fractions) {
+    for (std::size_t k = 0; k < params.opening_fractions.size(); ++k) {
+      const double fraction = params.opening_fractions[k];
       Gripper opened = gripper;
       opened.opening_stroke_mm = gripper.opening_stroke_mm * fraction;
-      const auto grasps = DetectGraspsStiffness(target_scene, camera, stiffness, opened, sp);
+      auto grasps = DetectGraspsStiffness(target_scene, camera, stiffness, opened, sp);
+      if (k + 1 < params.opening_fractions.size()) {
+        std::erase_if(grasps, [&](const Grasp& g) { return g.score < params.min_graspability; });
+      }
       if (grasps.empty()) continue;
       result.target_id = id;
       for (const Grasp& g : grasps) {

@@ -44,6 +44,11 @@ struct DeformabilityParams {
   /// Pre-grasp openings tried, as fractions of the stroke, in increasing order; the smallest
   /// that gives a grasp is kept.
   std::vector<double> opening_fractions{0.5, 0.75, 1.0};
+  /// An opening narrower than the widest one works only with a grasp of at least this FGE
+  /// graspability (a narrow opening that only just clears the object leaves a sliver of
+  /// candidates, often at the object's end); grasps below it are dropped. The widest opening
+  /// takes what it finds, as classic FGE does.
+  double min_graspability = 0.05;
   /// Partially deformable objects: target pixels whose stiffness (1 - deformability) is below
   /// this fraction of the target's maximum are never contact (they stay obstacles).
   double stiff_part_fraction = 0.5;
@@ -55,6 +60,9 @@ struct DeformabilityParams {
   double tie_tolerance = 0.05;
   int max_targets = 8;  ///< candidate targets planned at most, in policy order
   double centre_weight = 0.05;  ///< as StiffnessFgeParams::centre_weight
+  /// The mean deformability ranks in steps of this size (StiffnessFgeParams::key_step): a
+  /// learned map's small ripples do not pull the grasp off the object's centre.
+  double deformability_step = 0.05;
 };
 
 /// A grasp on the target with what the strategy knows about it.

@@ -85,14 +85,17 @@ struct SliceData {
 
 /// Candidates of one (angle, slice) map with the ranking key; A_st / A_t from the box sums.
 void AddCandidates(const std::vector<fge_detail::FastFge::RegionCandidate>& found, int angle_index,
-                   int slice_pos, int batch, double centre_weight, std::vector<Candidate>& all) {
+                   int slice_pos, int batch, double centre_weight, double key_step,
+                   std::vector<Candidate>& all) {
   for (const auto& rc : found) {
     // Eq. 3.6-3.7 as a mean (A_st / A_t): the thesis' clutter ranking, "same as the mean of
     // stiffness" (eq. 3.14), so region size does not bias it. sums = (A_st, A_t).
     if (!(rc.sums[1] > 0)) continue;  // no contact pixel at image resolution
     const double mean = rc.sums[0] / rc.sums[1];
-    all.push_back({rc.u_px, rc.v_px, mean + centre_weight * rc.graspability, mean, rc.graspability,
-                   angle_index, slice_pos, batch});
+    // A small epsilon keeps exact multiples of the step (0.1 levels) in their own band.
+    const double ranked = key_step > 0 ? std::floor(mean / key_step + 1e-6) * key_step : mean;
+    all.push_back({rc.u_px, rc.v_px, ranked + centre_weight * rc.graspability, mean,
+                   rc.graspability, angle_index, slice_pos, batch});
   }
 }
 
@@ -171,10 +174,11 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
   const FgeParams& fp = params.fge;
   fge_detail::CheckInputs(camera, gripper, fp);
   if (!(params.centre_weight >= 0) || params.candidate_step_px < 1 ||
-      params.candidate_step_px > 16 || params.max_slice_batches < 0) {
+      params.candidate_step_px > 16 || params.max_slice_batches < 0 ||
+      !(params.key_step >= 0 && params.key_step <= 1)) {
     throw std::invalid_argument(
         "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16, "
-        "max_slice_batches >= 0");
+        "max_slice_batches >= 0, key_step in [0, 1]");
   }
   if (scene.height_m.empty()) return {};
   if (stiffness_map.size() != scene.height_m.size()) {
@@ -222,7 +226,7 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
       const auto found = fast.Candidates(AngleOf(ai, fp.num_angles), pooled, grid_step);
       for (std::size_t si = 0; si < batch.size(); ++si) {
         AddCandidates(found[si], ai, static_cast<int>(first + si), static_cast<int>(b),
-                      params.centre_weight, all);
+                      params.centre_weight, params.key_step, all);
       }
     }
     grasps = SelectGrasps(all, slices, scene, camera, gripper, fp);

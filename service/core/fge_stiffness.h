@@ -18,6 +18,10 @@ struct StiffnessFgeParams {
   /// Ranking key = mean stiffness + centre_weight * graspability: stiffness comes in 0.1 steps,
   /// so among equally hard regions the more central (FGE's preference) wins. 0 = pure eq. 3.10.
   double centre_weight = 0.05;
+  /// > 0: the mean stiffness enters the ranking key rounded down to this step, so differences
+  /// below a learned map's noise do not outrank the centre (0 = as it is; ground-truth maps
+  /// come in 0.1 steps already). The reported mean_stiffness is never rounded.
+  double key_step = 0.0;
   /// Candidate pixels are evaluated on a grid of this step (image pixels), rounded down to the
   /// fast FGE's work resolution (a multiple of its scale, at least one work pixel).
   int candidate_step_px = 2;
@@ -31,7 +35,7 @@ struct StiffnessFgeParams {
 /// graspability. `stiffness_map`: the scene's size, values in [0, 1] (e.g.
 /// models::StiffnessModel::Predict). Throws std::invalid_argument like DetectGraspsFge, and when
 /// the map's size differs from the scene's or params are out of range (centre_weight >= 0,
-/// 1 <= candidate_step_px <= 16, max_slice_batches >= 0).
+/// 1 <= candidate_step_px <= 16, max_slice_batches >= 0, key_step in [0, 1]).
 std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
                                          const cv::Mat1f& stiffness_map, const Gripper& gripper,
                                          const StiffnessFgeParams& params = {});

@@ -214,6 +214,19 @@ cv::Mat3b DrawInstances(const cv::Mat3b& background, const cv::Mat1w& labels, in
   return image;
 }
 
+cv::Mat3b DrawOutline(const cv::Mat3b& background, const cv::Mat1b& mask) {
+  if (background.size() != mask.size()) {
+    throw std::invalid_argument("DrawOutline: the mask's size differs from the picture's");
+  }
+  cv::Mat3b image = background.clone();
+  if (image.empty()) return image;
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+  cv::drawContours(image, contours, -1, cv::Scalar(0, 0, 0), 4, cv::LINE_AA);
+  cv::drawContours(image, contours, -1, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
+  return image;
+}
+
 cv::Mat3b ColorizeDeformability(const cv::Mat1f& deformability, const cv::Mat1b& foreground) {
   if (!foreground.empty() && foreground.size() != deformability.size()) {
     throw std::invalid_argument("ColorizeDeformability: the mask's size differs from the map's");

@@ -35,6 +35,11 @@ cv::Mat3b DrawGrasps(const cv::Mat3b& background, const std::vector<core::Grasp>
 cv::Mat3b DrawInstances(const cv::Mat3b& background, const cv::Mat1w& labels,
                         int highlight_id = 0);
 
+/// The outline of `mask` (non-zero pixels, the picture's size) drawn in white over a copy of
+/// `background` (e.g. the target object of strategy=deformability). Empty mask: a plain copy.
+/// @throws std::invalid_argument when the sizes differ.
+cv::Mat3b DrawOutline(const cv::Mat3b& background, const cv::Mat1b& mask);
+
 /// The colour DrawInstances gives instance `id` (> 0), BGR.
 cv::Vec3b InstanceColor(int id);
 

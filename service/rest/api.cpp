@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "service/core/fge.h"
+#include "service/core/fge_deformability.h"
 #include "service/core/fge_stiffness.h"
 #include "service/core/preprocess.h"
 #include "service/http/static_files.h"
@@ -113,6 +114,35 @@ json ModelsJson(const StiffnessModelPtr& model, const SegmentationModelPtr& segm
   return list;
 }
 
+// strategy=deformability's request fields and their defaults (docs/deformability.md).
+json DeformabilityDefaultsJson() {
+  const core::DeformabilityParams d;
+  return {{"target_policy", core::TargetPolicyName(d.policy)},
+          {"min_target_area_px", d.min_target_area_px},
+          {"slice_step_mm", d.slice_step_m * 1000.0},
+          {"num_slices", d.num_slices},
+          {"min_score", d.min_score},
+          {"opening_fractions", d.opening_fractions},
+          {"stiff_part_fraction", d.stiff_part_fraction},
+          {"soft_obstacle_threshold", d.soft_obstacle_threshold},
+          {"max_press_depth_mm", d.max_press_depth_m * 1000.0},
+          {"max_targets", d.max_targets}};
+}
+
+json Strategies(bool stiffness_model, bool segmentation_model) {
+  json out = {"fge"};
+  if (stiffness_model) out.push_back("stiffness");
+  if (segmentation_model) out.push_back("deformability");
+  return out;
+}
+
+json Overlays(bool stiffness_model, bool segmentation_model) {
+  json out = {"depth"};
+  if (stiffness_model) out.push_back("stiffness");
+  if (segmentation_model) out.push_back("deformability");
+  return out;
+}
+
 http::Response Info(const ServiceConfig& config, bool robot_running,
                     const StiffnessModelPtr& model, const SegmentationModelPtr& segmentation) {
   const auto& limits = config.server.limits;
@@ -137,8 +167,10 @@ http::Response Info(const ServiceConfig& config, bool robot_running,
         {"max_fractal_points", config.max_fractal_points},
         {"max_fractal_attempts", config.max_fractal_attempts}}},
       {"models", ModelsJson(model, segmentation)},
-      {"strategies", model ? json{"fge", "stiffness"} : json{"fge"}},
-      {"default_strategy", model ? "stiffness" : "fge"},
+      {"strategies", Strategies(model != nullptr, segmentation != nullptr)},
+      {"default_strategy", segmentation ? "deformability" : (model ? "stiffness" : "fge")},
+      {"target_policies", {"highest", "least_deformable"}},
+      {"overlays", Overlays(model != nullptr, segmentation != nullptr)},
       {"depth_formats", {"npy", "png16", "tiff"}},
       {"stiffness_formats", {"png8", "png16", "npy", "color"}},
       {"segmentation_methods", segmentation ? json{"model", "pcl"} : json{"pcl"}},
@@ -152,7 +184,8 @@ http::Response Info(const ServiceConfig& config, bool robot_running,
         {"num_angles", config.fge.num_angles},
         {"num_height_steps", config.fge.num_height_steps},
         {"height_step_m", config.fge.height_step_m},
-        {"png_unit_m", config.png_unit_m}}},
+        {"png_unit_m", config.png_unit_m},
+        {"deformability", DeformabilityDefaultsJson()}}},
       {"robot", RobotInfoJson(config, robot_running)},
   };
   return http::Response::Json(200, body.dump());
@@ -164,10 +197,31 @@ http::Response PngResponse(const cv::Mat& image, std::size_t grasp_count) {
   return png;
 }
 
+// The picture under the grasps of a PNG answer: the depth, the stiffness model's map, or the
+// segmentation model's deformability map with the target (`target_id` > 0) outlined.
+cv::Mat3b OverlayPicture(const GraspRequest& in, const DepthUpload& up, const cv::Mat1f& stiffness,
+                         const GraspInstances* instances, int target_id) {
+  switch (in.overlay) {
+    case OverlayBackground::kStiffness:
+      return io::ColorizeStiffness(stiffness, models::kBackgroundThreshold);
+    case OverlayBackground::kDeformability: {
+      if (instances == nullptr) break;  // not reached: the parser asks for instances
+      const cv::Mat3b map = io::ColorizeDeformability(instances->deformability,
+                                                      instances->foreground > 0.5f);
+      const int outlined = target_id > 0 ? target_id : in.target_id;
+      return outlined > 0 ? io::DrawOutline(map, instances->labels == outlined) : map;
+    }
+    case OverlayBackground::kDepth:
+      break;
+  }
+  return io::ColorizeDepth(up.depth);
+}
+
 http::Response Grasps(const http::Request& request, const ServiceConfig& config,
                       const StiffnessModelPtr& model, const SegmentationModelPtr& segmenter) {
   const auto start = Clock::now();
-  auto parsed = ParseGraspRequest(request, config, model != nullptr);
+  auto parsed = ParseGraspRequest(request, config,
+                                  LoadedModels{model != nullptr, segmenter != nullptr});
   if (!parsed.ok()) return ErrorToResponse(parsed.error());
   const GraspRequest& in = parsed.value();
   const DepthUpload& up = in.upload;
@@ -186,14 +240,19 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
   const double preprocess_ms = MillisecondsSince(preprocess_start);
 
   // Instances only when the request asks for them (segmenting is not free), and for pictures
-  // only when a target needs them (the picture shows no instance ids).
+  // only when a target, the deformability strategy or its map needs them (the picture shows no
+  // instance ids).
+  const bool by_deformability = in.strategy == GraspStrategy::kDeformability;
+  const bool deformability_overlay = png && in.overlay == OverlayBackground::kDeformability;
   std::optional<GraspInstances> instances;
-  if (in.wants_instances() && (!png || in.target_id > 0)) {
+  if (in.wants_instances() &&
+      (!png || in.target_id > 0 || by_deformability || deformability_overlay)) {
     auto found = InstancesForGrasps(in, scene, up.camera, segmenter.get());
     if (!found.ok()) return ErrorToResponse(found.error());
     instances = std::move(found).value();
-    if (in.target_id > 0) {
-      // Contacts on the target only; every other object stays an obstacle.
+    if (in.target_id > 0 && !by_deformability) {
+      // Contacts on the target only; every other object stays an obstacle. (The deformability
+      // strategy handles its target itself: soft neighbours may be pressed.)
       core::RestrictContact(scene, instances->labels == in.target_id, in.min_depth_m);
     }
   }
@@ -209,12 +268,20 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
   if (need_stiffness) stiffness = model->PredictScene(scene);
   const double stiffness_ms = MillisecondsSince(stiffness_start);
   if (png && !in.draw_grasps) {
-    return PngResponse(io::ColorizeStiffness(stiffness, models::kBackgroundThreshold), 0);
+    return PngResponse(OverlayPicture(in, up, stiffness, instances ? &*instances : nullptr, 0), 0);
   }
 
   const auto detect_start = Clock::now();
   std::vector<core::Grasp> grasps;
-  if (in.strategy == GraspStrategy::kStiffness) {
+  core::DeformabilityResult planned;
+  if (by_deformability) {
+    core::DeformabilityParams params = in.deformability;
+    params.fge = in.fge;
+    planned = core::DetectGraspsDeformability(
+        scene, up.camera, {instances->labels, instances->scores, instances->deformability},
+        in.gripper, params);
+    for (const auto& dg : planned.grasps) grasps.push_back(dg.grasp);
+  } else if (in.strategy == GraspStrategy::kStiffness) {
     core::StiffnessFgeParams params;
     params.fge = in.fge;
     grasps = core::DetectGraspsStiffness(scene, up.camera, stiffness, in.gripper, params);
@@ -230,15 +297,26 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
 
   if (png) {
     const cv::Mat3b background =
-        in.overlay == OverlayBackground::kStiffness
-            ? io::ColorizeStiffness(stiffness, models::kBackgroundThreshold)
-            : io::ColorizeDepth(up.depth);
+        OverlayPicture(in, up, stiffness, instances ? &*instances : nullptr, planned.target_id);
     return PngResponse(io::DrawGrasps(background, grasps), grasps.size());
   }
   json list = json::array();
   for (std::size_t i = 0; i < grasps.size(); ++i) {
-    list.push_back(
-        GraspToJson(grasps[i], static_cast<int>(i) + 1, instances ? &*instances : nullptr));
+    json g = GraspToJson(grasps[i], static_cast<int>(i) + 1, instances ? &*instances : nullptr);
+    if (by_deformability) {
+      const core::DeformabilityGrasp& dg = planned.grasps[i];
+      g["instance_id"] = dg.instance_id;
+      g["deformability"] = {{"target_policy", core::TargetPolicyName(in.deformability.policy)},
+                            {"target_by", in.target_id > 0 ? "request" : "policy"},
+                            {"slice", dg.grasp.height_step},
+                            {"opening_fraction", dg.opening_fraction},
+                            {"mean_deformability", OrNull(dg.mean_deformability)},
+                            {"pressed_instances", dg.pressed_ids},
+                            {"press_depth_m", dg.press_depth_m}};
+    } else {
+      g["deformability"] = nullptr;
+    }
+    list.push_back(std::move(g));
   }
   json camera = CameraToJson(up.camera);
   camera["source"] = up.camera_source;
@@ -272,6 +350,11 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
       {"grasps", list},
       {"timing_ms", timing},
   };
+  if (by_deformability) {
+    body["target"] = {{"id", planned.target_id > 0 ? json(planned.target_id) : json()},
+                      {"policy", core::TargetPolicyName(in.deformability.policy)},
+                      {"tried", planned.tried_ids}};
+  }
   return http::Response::Json(200, body.dump());
 }
 

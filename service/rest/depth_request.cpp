@@ -107,6 +107,16 @@ const std::map<std::string, NumericOption>& NumericOptions() {
       {"height_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.fge.height_step_m = v / 1000.0; }}},
       {"grip_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.fge.grip_depth_m = v / 1000.0; }}},
       {"min_depth_m", {0, 100, false, [](GraspRequest& r, double v) { r.min_depth_m = v; }}},
+      // strategy=deformability (docs/deformability.md): Algorithm 1's K, L, M, R and the rules
+      // for partially deformable objects and soft obstacles.
+      {"min_target_area_px", {0, 1e6, false, [](GraspRequest& r, double v) { r.deformability.min_target_area_px = v; }}},
+      {"slice_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.deformability.slice_step_m = v / 1000.0; }}},
+      {"num_slices", {1, 20, true, [](GraspRequest& r, double v) { r.deformability.num_slices = static_cast<int>(v); }}},
+      {"min_score", {0, 1, false, [](GraspRequest& r, double v) { r.deformability.min_score = v; }}},
+      {"stiff_part_fraction", {0, 1, false, [](GraspRequest& r, double v) { r.deformability.stiff_part_fraction = v; }}},
+      {"soft_obstacle_threshold", {0, 2, false, [](GraspRequest& r, double v) { r.deformability.soft_obstacle_threshold = v; }}},
+      {"max_press_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.deformability.max_press_depth_m = v / 1000.0; }}},
+      {"max_targets", {1, 64, true, [](GraspRequest& r, double v) { r.deformability.max_targets = static_cast<int>(v); }}},
   };
   return options;
 }
@@ -272,15 +282,45 @@ core::Result<cv::Mat1w> DecodeLabels(const std::string& bytes, const ServiceConf
   return labels;
 }
 
+// "0.5,0.75,1": fractions of the stroke in (0, 1], increasing, at most 8.
+core::Result<std::vector<double>> ParseOpeningFractions(const std::string& text) {
+  const auto bad = [&](const std::string& why) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "opening_fractions must be up to 8 comma-separated fractions of the stroke "
+                     "in (0, 1], increasing (e.g. 0.5,0.75,1): " + why + ", got '" + text + "'",
+                     "opening_fractions");
+  };
+  std::vector<double> out;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    auto v = ParseNumber("opening_fractions", text.substr(start, comma - start), 0, 1);
+    if (!v.ok() || !(v.value() > 0)) return bad("each must be a number in (0, 1]");
+    if (!out.empty() && !(v.value() > out.back())) return bad("not increasing");
+    out.push_back(v.value());
+    if (out.size() > 8) return bad("too many");
+    start = comma + 1;
+  }
+  return out;
+}
+
 }  // namespace
 
 const char* StrategyName(GraspStrategy strategy) {
-  return strategy == GraspStrategy::kStiffness ? "stiffness" : "fge";
+  switch (strategy) {
+    case GraspStrategy::kStiffness:
+      return "stiffness";
+    case GraspStrategy::kDeformability:
+      return "deformability";
+    case GraspStrategy::kFge:
+      break;
+  }
+  return "fge";
 }
 
 core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
-                                             const ServiceConfig& config,
-                                             bool stiffness_model_loaded) {
+                                             const ServiceConfig& config, LoadedModels models) {
+  const bool stiffness_model_loaded = models.stiffness;
   auto collected = CollectFields(request);
   if (!collected.ok()) return collected.error();
   const RequestFields& fields = collected.value();
@@ -293,7 +333,8 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   for (const auto& [key, text] : fields.values) {
     if (key == "format" || key == "strategy" || key == "draw" || key == "overlay" ||
         key == "mean_stiffness" || key == "instances" || key == "segmentation" ||
-        key == "target" || IsUploadField(key)) {
+        key == "target" || key == "target_policy" || key == "opening_fractions" ||
+        IsUploadField(key)) {
       continue;
     }
     const auto option = NumericOptions().find(key);
@@ -307,16 +348,49 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
     }
     option->second.apply(out, v.value());
   }
-  auto strategy = ParseChoice<GraspStrategy, 2>(
-      fields, "strategy", stiffness_model_loaded ? GraspStrategy::kStiffness : GraspStrategy::kFge,
-      {"fge", "stiffness"}, {GraspStrategy::kFge, GraspStrategy::kStiffness});
+  const GraspStrategy default_strategy =
+      models.segmentation ? GraspStrategy::kDeformability
+                          : (stiffness_model_loaded ? GraspStrategy::kStiffness : GraspStrategy::kFge);
+  auto strategy = ParseChoice<GraspStrategy, 3>(
+      fields, "strategy", default_strategy, {"fge", "stiffness", "deformability"},
+      {GraspStrategy::kFge, GraspStrategy::kStiffness, GraspStrategy::kDeformability});
   if (!strategy.ok()) return strategy.error();
   out.strategy = strategy.value();
-  auto overlay = ParseChoice<OverlayBackground, 2>(
-      fields, "overlay", OverlayBackground::kDepth, {"depth", "stiffness"},
-      {OverlayBackground::kDepth, OverlayBackground::kStiffness});
+  auto overlay = ParseChoice<OverlayBackground, 3>(
+      fields, "overlay", OverlayBackground::kDepth, {"depth", "stiffness", "deformability"},
+      {OverlayBackground::kDepth, OverlayBackground::kStiffness, OverlayBackground::kDeformability});
   if (!overlay.ok()) return overlay.error();
   out.overlay = overlay.value();
+  if (!models.segmentation) {
+    if (out.strategy == GraspStrategy::kDeformability) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "strategy 'deformability' needs a segmentation model and none is loaded "
+                       "(start the server with --segmentation-model); use strategy 'stiffness' "
+                       "or 'fge'",
+                       "strategy");
+    }
+    if (out.overlay == OverlayBackground::kDeformability) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "overlay 'deformability' needs a segmentation model and none is loaded",
+                       "overlay");
+    }
+  }
+  auto policy = ParseChoice<core::TargetPolicy, 2>(
+      fields, "target_policy", core::TargetPolicy::kHighest, {"highest", "least_deformable"},
+      {core::TargetPolicy::kHighest, core::TargetPolicy::kLeastDeformable});
+  if (!policy.ok()) return policy.error();
+  out.deformability.policy = policy.value();
+  if (const auto f = fields.values.find("opening_fractions"); f != fields.values.end()) {
+    auto fractions = ParseOpeningFractions(f->second);
+    if (!fractions.ok()) return fractions.error();
+    out.deformability.opening_fractions = std::move(fractions).value();
+  }
+  if (out.deformability.slice_step_m > out.gripper.finger_length_mm / 1000.0) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "slice_step_mm must not exceed finger_length_mm (the fingertips go one "
+                     "slice step below the contact)",
+                     "slice_step_mm");
+  }
   if (!stiffness_model_loaded) {
     if (out.strategy == GraspStrategy::kStiffness) {
       return MakeError(ErrorCode::kInvalidArgument,
@@ -379,6 +453,7 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
                        "target");
     }
     out.target_id = static_cast<int>(id.value());
+    out.deformability.target_id = out.target_id;
   }
   if (fields.labels_bytes) {
     auto labels = DecodeLabels(*fields.labels_bytes, config, out.upload.depth);

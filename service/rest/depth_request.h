@@ -8,6 +8,7 @@
 
 #include "service/core/depth.h"
 #include "service/core/fge.h"
+#include "service/core/fge_deformability.h"
 #include "service/core/grasp.h"
 #include "service/core/status.h"
 #include "service/http/message.h"
@@ -29,9 +30,12 @@ enum class OutputFormat { kJson, kPng };
 enum class GraspStrategy {
   kFge,        ///< classic FGE: graspability (centre of the contact surface)
   kStiffness,  ///< stiffness-aware FGE on the model's map (needs a loaded model)
+  /// Algorithm 1 on one target object with the segmentation model's deformability map
+  /// (docs/deformability.md; needs a loaded segmentation model)
+  kDeformability,
 };
 /// What the PNG answer of /v1/grasps shows under the grasps.
-enum class OverlayBackground { kDepth, kStiffness };
+enum class OverlayBackground { kDepth, kStiffness, kDeformability };
 
 const char* StrategyName(GraspStrategy strategy);
 
@@ -40,11 +44,16 @@ struct GraspRequest {
   core::Gripper gripper;
   core::FgeParams fge;
   GraspStrategy strategy = GraspStrategy::kFge;
+  /// strategy=deformability: fields target_policy, min_target_area_px (K), slice_step_mm (L),
+  /// num_slices (M), min_score (R), opening_fractions, stiff_part_fraction,
+  /// soft_obstacle_threshold, max_press_depth_mm; target_id is copied from "target".
+  core::DeformabilityParams deformability;
   OutputFormat output = OutputFormat::kJson;
   /// PNG answers only: field "draw" = "grasps" (default) or "none" (the picture alone, e.g. as
   /// the background a client draws its own grasps on).
   bool draw_grasps = true;
-  /// PNG answers only: field "overlay" = "depth" (default) or "stiffness" (the model's map).
+  /// PNG answers only: field "overlay" = "depth" (default), "stiffness" (the stiffness model's
+  /// map) or "deformability" (the segmentation model's map, the target outlined).
   OverlayBackground overlay = OverlayBackground::kDepth;
   /// File part "segmask" (GQ-CNN's convention: a PNG of the depth's size, non-zero = allowed):
   /// grasps only with contact on the mask. Empty = the whole image.
@@ -69,15 +78,22 @@ struct GraspRequest {
   std::optional<segmentation::Method> segmentation_method;
   /// Whether the answer needs an instance segmentation (given or computed).
   bool wants_instances() const {
-    return report_instances || target_id > 0 || !instance_labels.empty();
+    return report_instances || target_id > 0 || !instance_labels.empty() ||
+           strategy == GraspStrategy::kDeformability ||
+           overlay == OverlayBackground::kDeformability;
   }
 };
 
-/// `stiffness_model_loaded`: whether strategy=stiffness and overlay=stiffness can be served;
-/// it also makes "stiffness" the default strategy.
+/// Which models the service has loaded: they decide what can be served and the default
+/// strategy (deformability with a segmentation model, else stiffness with a stiffness model,
+/// else fge).
+struct LoadedModels {
+  bool stiffness = false;     ///< strategy=stiffness, overlay=stiffness, mean_stiffness
+  bool segmentation = false;  ///< strategy=deformability, overlay=deformability
+};
+
 core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
-                                             const ServiceConfig& config,
-                                             bool stiffness_model_loaded);
+                                             const ServiceConfig& config, LoadedModels models);
 
 /// POST /v1/stiffness answer formats: 8-bit PNG (round(255 s)), 16-bit PNG (round(65535 s)),
 /// NPY float32 (s itself), or the colour-mapped picture (PNG).

@@ -87,10 +87,12 @@ core::Result<GraspInstances> InstancesForGrasps(const GraspRequest& request,
                                                 const core::Camera& camera,
                                                 const models::SegmentationModel* model) {
   GraspInstances out;
+  const bool need_deformability = request.strategy == GraspStrategy::kDeformability ||
+                                  request.overlay == OverlayBackground::kDeformability;
+  const auto start = Clock::now();
   if (!request.instance_labels.empty()) {
     out.labels = request.instance_labels;
   } else {
-    const auto start = Clock::now();
     auto method =
         ResolveSegmentationMethod(request.segmentation_method, model != nullptr, "segmentation");
     if (!method.ok()) return method.error();
@@ -98,13 +100,34 @@ core::Result<GraspInstances> InstancesForGrasps(const GraspRequest& request,
     if (!segmented.ok()) return segmented.error();
     const SceneInstances& found = segmented.value();
     out.labels = found.masks.labels;
+    out.scores = found.masks.scores;
     out.source = segmentation::MethodName(found.method);
-    if (!found.deformability.empty()) {
-      out.mean_deformability.resize(static_cast<std::size_t>(found.masks.count()) + 1);
-      for (const auto& info : DescribeSceneInstances(found, scene, camera, nullptr)) {
-        out.mean_deformability[static_cast<std::size_t>(info.id)] = info.mean_deformability;
-      }
+    out.deformability = found.deformability;
+    out.foreground = found.foreground;
+  }
+  if (need_deformability && out.deformability.empty()) {
+    if (model == nullptr) {
+      return core::MakeError(core::ErrorCode::kUnavailable,
+                             "the deformability map needs a segmentation model and none is loaded",
+                             "strategy");
     }
+    const models::SegmentationOutput maps = model->SegmentScene(scene);
+    out.deformability = maps.deformability;
+    out.foreground = maps.foreground;
+  }
+  if (!out.deformability.empty()) {
+    SceneInstances described;
+    described.masks.labels = out.labels;
+    double ids = 0;
+    cv::minMaxLoc(out.labels, nullptr, &ids);
+    described.masks.scores.assign(static_cast<std::size_t>(ids), 1.0f);
+    described.deformability = out.deformability;
+    out.mean_deformability.resize(static_cast<std::size_t>(ids) + 1);
+    for (const auto& info : DescribeSceneInstances(described, scene, camera, nullptr)) {
+      out.mean_deformability[static_cast<std::size_t>(info.id)] = info.mean_deformability;
+    }
+  }
+  if (std::string(out.source) != "labels" || need_deformability) {
     out.milliseconds = MillisecondsSince(start);
   }
   double max_id = 0;
@@ -115,6 +138,8 @@ core::Result<GraspInstances> InstancesForGrasps(const GraspRequest& request,
     for (int u = 0; u < out.labels.cols; ++u) present[row[u]] = true;
   }
   out.count = static_cast<int>(std::count(present.begin() + 1, present.end(), true));
+  // Labels given by the client carry no scores: every instance counts as confident.
+  out.scores.resize(static_cast<std::size_t>(max_id), 1.0f);
   const int target = request.target_id;
   if (target > 0 && (target > static_cast<int>(max_id) || !present[target])) {
     return core::MakeError(core::ErrorCode::kUnprocessable,

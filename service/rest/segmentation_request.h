@@ -60,13 +60,20 @@ struct GraspInstances {
   cv::Mat1w labels;
   const char* source = "labels";  ///< "labels" (the client's), "model" or "pcl"
   int count = 0;                  ///< instances with at least one pixel
+  /// scores[id - 1] for ids 1..max id: the segmenter's; 1 for labels given by the client.
+  std::vector<float> scores;
   /// mean_deformability[id] for ids 1..max id (model only; empty otherwise).
   std::vector<std::optional<double>> mean_deformability;
+  /// The segmentation model's deformability map (empty when it did not run) and foreground.
+  cv::Mat1f deformability;
+  cv::Mat1f foreground;
   double milliseconds = 0;  ///< segmenting and describing (0 for labels given)
 };
 
-/// Errors: ResolveSegmentationMethod's (field "segmentation"), SegmentInstances', and
-/// kUnprocessable (field "target") when the request's target is not an id of the segmentation.
+/// The model's deformability map is also computed (for labels given, or a pcl segmentation) when
+/// the request's strategy or overlay needs it. Errors: ResolveSegmentationMethod's (field
+/// "segmentation"), SegmentInstances', and kUnprocessable (field "target") when the request's
+/// target is not an id of the segmentation.
 core::Result<GraspInstances> InstancesForGrasps(const GraspRequest& request,
                                                 const core::Scene& scene,
                                                 const core::Camera& camera,

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <optional>
 #include <set>
 #include <tuple>
@@ -35,6 +36,8 @@ constexpr double kMaxCoordinateM = 1000.0;
 // Squeezing cannot bring the object below this fraction of its first-contact width l_c.
 constexpr double kMinSqueezedFraction = 0.5;
 constexpr double kDamageRate = 0.2;
+// A descending finger may compress a neighbour by at most this fraction of its height.
+constexpr double kMaxPressFraction = 0.5;
 constexpr double kGravityMPerS2 = 9.81;
 // Spring-rate anchors of ContactSpringRateNPerMm (log-linear in between).
 constexpr double kSoftestRateNPerMm = 0.2;
@@ -140,7 +143,8 @@ std::optional<core::Error> Validate(const SimGrasp& g, const SimGripper& p) {
       {"finger_thickness_m", p.finger_thickness_m},
       {"finger_length_m", p.finger_length_m},
       {"closing_force_n", p.closing_force_n},
-      {"friction_coefficient", p.friction_coefficient}};
+      {"friction_coefficient", p.friction_coefficient},
+      {"max_press_force_n", p.max_press_force_n}};
   for (const auto& [field, value] : finite) {
     if (!std::isfinite(value)) {
       return MakeError(ErrorCode::kInvalidArgument, std::string(field) + " must be finite", field);
@@ -175,6 +179,11 @@ std::optional<core::Error> Validate(const SimGrasp& g, const SimGripper& p) {
                      "closing_force_n is " + Num(p.closing_force_n, " N") + "; expected > 0",
                      "closing_force_n");
   }
+  if (!(p.max_press_force_n >= 0.0)) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "max_press_force_n is " + Num(p.max_press_force_n, " N") + "; expected >= 0",
+                     "max_press_force_n");
+  }
   if (!(p.friction_coefficient >= 0.0)) {
     return MakeError(
         ErrorCode::kInvalidArgument,
@@ -190,7 +199,7 @@ std::optional<core::Error> Validate(const SimGrasp& g, const SimGripper& p) {
   return std::nullopt;
 }
 
-/// The first surface a finger meets on its way down.
+/// The highest point of one instance (or the support) a finger meets on its way down.
 struct DescentHit {
   const char* finger;
   RayHit hit;
@@ -199,14 +208,15 @@ struct DescentHit {
 /// Sweeps both finger boxes from above the scene down to the fingertip plane. Vertical rays over
 /// each footprint find surfaces with some extent in plan; horizontal rays across the footprint
 /// on levels kRaySpacingM apart find thin vertical features that fall between vertical rays.
-/// Returns the highest surface met, which is the one a descending finger would touch first.
-std::optional<DescentHit> Descend(const SceneRaycaster& raycaster, const GraspFrame& frame,
-                                  const SimGrasp& grasp, const SimGripper& gripper,
-                                  const ZRange& scene_z) {
+/// Returns, per instance met (0 = the support), its highest hit: the first a descending finger
+/// would touch. Highest first.
+std::vector<DescentHit> Descend(const SceneRaycaster& raycaster, const GraspFrame& frame,
+                                const SimGrasp& grasp, const SimGripper& gripper,
+                                const ZRange& scene_z) {
   const double tip_z = grasp.fingertip_height_m;
   const double top_z = std::max(scene_z.hi_m, tip_z) + kStartClearanceM;
   const double drop_m = top_z - tip_z - kSkinM;
-  if (!(drop_m > 0.0)) return std::nullopt;
+  if (!(drop_m > 0.0)) return {};
   const Eigen::Vector3d down(0.0, 0.0, -1.0);
   const double half_width = gripper.finger_width_m / 2.0;
   const std::vector<double> bs = Samples(-half_width, half_width);
@@ -214,10 +224,14 @@ std::optional<DescentHit> Descend(const SceneRaycaster& raycaster, const GraspFr
   const std::vector<double> levels =
       Samples(std::max(tip_z + kSkinM, scene_z.lo_m), top_z, kRaySpacingM, kMaxDescentLevels);
 
-  std::optional<DescentHit> highest;
+  std::map<int, DescentHit> by_instance;
   auto consider = [&](const Finger& finger, const std::optional<RayHit>& hit) {
-    if (hit && (!highest || hit->point_w.z() > highest->hit.point_w.z())) {
-      highest = DescentHit{finger.name, *hit};
+    if (!hit) return;
+    auto [it, inserted] = by_instance.try_emplace(hit->instance_id, DescentHit{finger.name, *hit});
+    DescentHit& d = it->second;
+    if (!inserted && hit->point_w.z() > d.hit.point_w.z()) {
+      d.finger = finger.name;
+      d.hit = *hit;
     }
   };
   for (const Finger& finger : {kLeft, kRight}) {
@@ -242,7 +256,25 @@ std::optional<DescentHit> Descend(const SceneRaycaster& raycaster, const GraspFr
       }
     }
   }
-  return highest;
+  std::vector<DescentHit> out;
+  for (auto& [id, d] : by_instance) out.push_back(d);
+  std::sort(out.begin(), out.end(), [](const DescentHit& a, const DescentHit& b) {
+    if (a.hit.point_w.z() != b.hit.point_w.z()) return a.hit.point_w.z() > b.hit.point_w.z();
+    return a.hit.instance_id < b.hit.instance_id;
+  });
+  return out;
+}
+
+/// Height of an object: its vertices' z range in W.
+double ObjectHeightM(const PlacedObject& placed) {
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -lo;
+  for (const auto& v : placed.object->mesh_o.vertices) {
+    const double vz = (placed.world_from_object * Eigen::Vector3d(v[0], v[1], v[2])).z();
+    lo = std::min(lo, vz);
+    hi = std::max(hi, vz);
+  }
+  return hi > lo ? hi - lo : 0.0;
 }
 
 /// Instance ids of the surfaces above the fingertip plane between the open fingers.
@@ -428,30 +460,67 @@ core::Result<GraspExecution> ExecuteGrasp(const SimScene& scene, const SceneRayc
   const GraspFrame frame(grasp);
   const ZRange scene_z = SceneZRange(scene);
 
-  // 1. Descent.
-  if (const auto hit = Descend(raycaster, frame, grasp, gripper, scene_z)) {
-    const int id = hit->hit.instance_id;
-    const std::string where = " at z = " + Mm(hit->hit.point_w.z()) +
+  // 1. Descent: from the highest surface met down, each is pressed aside (a neighbour soft
+  // enough to yield to the fingertip height under max_press_force_n, by at most
+  // kMaxPressFraction of its height) or ends the descent.
+  std::vector<PressedNeighbour> pressed;
+  const std::vector<DescentHit> hits = Descend(raycaster, frame, grasp, gripper, scene_z);
+  std::set<int> between;
+  if (!hits.empty()) between = IdsBetweenFingers(raycaster, frame, grasp, gripper, scene_z);
+  for (const DescentHit& d : hits) {
+    const int id = d.hit.instance_id;
+    const std::string where = " at z = " + Mm(d.hit.point_w.z()) +
                               " on the way down to the fingertip height " +
                               Mm(grasp.fingertip_height_m);
     // Landing on the very object that fills the gap means the opening was too small for it.
-    if (id != 0 && IdsBetweenFingers(raycaster, frame, grasp, gripper, scene_z).count(id) != 0) {
+    if (id != 0 && between.count(id) != 0) {
       return Outcome(GraspOutcome::kTooWide,
                      What(scene, id) + " is wider than the " + Mm(grasp.opening_m) +
-                         " opening: the " + hit->finger + " finger lands on it" + where,
+                         " opening: the " + d.finger + " finger lands on it" + where,
                      id);
     }
+    const PlacedObject* neighbour = id != 0 ? scene.Find(id) : nullptr;
+    std::string why;
+    if (neighbour != nullptr && neighbour->object && gripper.max_press_force_n > 0.0) {
+      const double depth_m = std::max(0.0, d.hit.point_w.z() - grasp.fingertip_height_m);
+      // The surface met first sets the spring rate (a sponge's pad, a brush's bristles).
+      const double force_n = ContactSpringRateNPerMm(d.hit.stiffness) * depth_m * 1000.0;
+      const double height_m = ObjectHeightM(*neighbour);
+      if (force_n <= gripper.max_press_force_n && depth_m <= kMaxPressFraction * height_m) {
+        pressed.push_back({id, depth_m, force_n, height_m > 0.0 ? depth_m / height_m : 0.0});
+        continue;
+      }
+      why = force_n > gripper.max_press_force_n
+                ? " (pressing it " + Mm(depth_m) + " takes " + Num(force_n, " N") + " > " +
+                      Num(gripper.max_press_force_n, " N") + ")"
+                : " (pressing it " + Mm(depth_m) + " is more than half its height)";
+    }
     return Outcome(GraspOutcome::kCollision,
-                   std::string("the ") + hit->finger + " finger hits " + What(scene, id) + where,
+                   std::string("the ") + d.finger + " finger hits " + What(scene, id) + where + why,
                    id);
   }
+  std::sort(pressed.begin(), pressed.end(),
+            [](const auto& a, const auto& b) { return a.instance_id < b.instance_id; });
 
-  // 2. Closing.
-  const Contact left = Close(raycaster, frame, grasp, gripper, kLeft);
-  const Contact right = Close(raycaster, frame, grasp, gripper, kRight);
-  if (auto judged = JudgeContacts(scene, grasp, left, right)) return *std::move(judged);
+  // 2. Closing. Pressed neighbours are pushed aside: the fingers close without them.
+  std::optional<SceneRaycaster> without_pressed;
+  if (!pressed.empty()) {
+    SimScene rest = scene;
+    for (const PressedNeighbour& p : pressed) rest.Remove(p.instance_id);
+    auto built = SceneRaycaster::Build(rest);
+    if (!built.ok()) return built.error();
+    without_pressed.emplace(std::move(built).value());
+  }
+  const SceneRaycaster& closing = without_pressed ? *without_pressed : raycaster;
+  const Contact left = Close(closing, frame, grasp, gripper, kLeft);
+  const Contact right = Close(closing, frame, grasp, gripper, kRight);
+  if (auto judged = JudgeContacts(scene, grasp, left, right)) {
+    judged->pressed = pressed;
+    return *std::move(judged);
+  }
 
   GraspExecution e;
+  e.pressed = pressed;
   e.instance_id = left.instance_id;
   e.stiffness_left = left.stiffness;
   e.stiffness_right = right.stiffness;
@@ -500,6 +569,10 @@ core::Result<GraspExecution> ExecuteGrasp(const SimScene& scene, const SceneRayc
   e.outcome = GraspOutcome::kSucceeded;
   e.reason = "held " + What(scene, e.instance_id) + ": " + widths +
              (e.damaged ? " (damaged: above 20 %)" : "");
+  for (const PressedNeighbour& p : pressed) {
+    e.reason += "; pressed " + What(scene, p.instance_id) + " by " + Mm(p.press_depth_m) + " (" +
+                Num(p.force_n, " N") + ")";
+  }
   return e;
 }
 

@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 #include <string>
+#include <vector>
 
 #include "service/core/grasp.h"
 #include "service/core/status.h"
@@ -22,6 +23,11 @@ struct SimGripper {
   double finger_length_m = 0.04;      ///< how far fingers reach below the palm
   double closing_force_n = 10.0;      ///< constant force each finger pushes with once in contact
   double friction_coefficient = 0.5;  ///< finger pad / object Coulomb friction
+  /// Largest downward force a descending finger may push a neighbour with (the arm stops
+  /// above it): a neighbour that yields to the fingertip height under this force (Hooke's law
+  /// on the stiffness of the surface the finger meets first), by at most half its height, is
+  /// pressed aside; anything else is a collision. 0 = every contact on the way down collides.
+  double max_press_force_n = 20.0;
 };
 
 /// A 4-DoF grasp in W: fingertips at height z = fingertip_height_m, centred on (x, y), closing
@@ -49,6 +55,14 @@ enum class GraspOutcome {
 /// "succeeded", "collision", "empty", "too_wide", "multiple_objects", "slipped".
 const char* GraspOutcomeName(GraspOutcome outcome);
 
+/// A neighbour a descending finger compressed instead of colliding with it.
+struct PressedNeighbour {
+  int instance_id = 0;
+  double press_depth_m = 0.0;     ///< how far the finger pushed into it, vertically
+  double force_n = 0.0;           ///< Hooke's law force at that depth
+  double deformation_rate = 0.0;  ///< press depth / the neighbour's height
+};
+
 struct GraspExecution {
   GraspOutcome outcome = GraspOutcome::kEmpty;
   std::string reason;             ///< a sentence saying why, with the numbers that decided it
@@ -59,6 +73,8 @@ struct GraspExecution {
   bool damaged = false;           ///< deformation_rate > 0.2
   float stiffness_left = 0.0f;    ///< surface stiffness under each finger at contact
   float stiffness_right = 0.0f;
+  /// Soft neighbours the fingers pressed on the way down (ascending ids); empty = none.
+  std::vector<PressedNeighbour> pressed;
   bool succeeded() const { return outcome == GraspOutcome::kSucceeded; }
 };
 

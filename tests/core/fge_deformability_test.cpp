@@ -202,6 +202,23 @@ TEST(DetectGraspsDeformability, TheSmallestOpeningThatWorksWins) {
   }
 }
 
+TEST(DetectGraspsDeformability, ANarrowOpeningMustLeaveRoomToWork) {
+  // A 30 mm box: 37.5 mm clears it with a narrow band of candidates (graspability about 0.09),
+  // which works by default; asked for more room (0.2), the full stroke is used.
+  SceneSpec spec;
+  spec.boxes = {Box{0.0, 0.0, 0.030, 0.070, 0.040, 0.0, 1}};
+  const Prepared s = Make(spec, {{1, 1}}, {{1, 0.1f}}, {0.9f});
+  DeformabilityParams params;
+  auto result = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  ASSERT_FALSE(result.grasps.empty());
+  EXPECT_DOUBLE_EQ(result.grasps.front().opening_fraction, 0.75);
+  for (const auto& dg : result.grasps) EXPECT_GE(dg.grasp.score, params.min_graspability);
+  params.min_graspability = 0.2;
+  result = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  ASSERT_FALSE(result.grasps.empty());
+  EXPECT_DOUBLE_EQ(result.grasps.front().opening_fraction, 1.0);
+}
+
 // Two free boxes: a tall soft one (instance 1, 60 mm) and a lower rigid one (instance 2, 40 mm).
 SceneSpec TallSoftLowHard() {
   SceneSpec spec;
@@ -296,6 +313,8 @@ TEST(DetectGraspsDeformability, BadInputThrows) {
   bad([](DeformabilityParams& p) { p.max_press_depth_m = -1; });
   bad([](DeformabilityParams& p) { p.min_target_area_px = std::nan(""); });
   bad([](DeformabilityParams& p) { p.max_targets = 0; });
+  bad([](DeformabilityParams& p) { p.min_graspability = 2; });
+  bad([](DeformabilityParams& p) { p.deformability_step = -0.1; });
   bad([](DeformabilityParams& p) { p.fge.num_angles = 0; });
 }
 

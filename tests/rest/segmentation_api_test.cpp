@@ -112,6 +112,27 @@ int BoxAt(const Frame& f, const json& grasp) {
                            std::clamp(u, 0, f.scene.object_id.cols - 1));
 }
 
+// The synthetic boxes whose surface lies above a grasp's contact height inside its closing
+// region (|a| <= opening / 2, |b| <= finger width / 2 around the centre, pixel-centre rule).
+std::set<int> ContactBoxes(const Frame& f, const json& g) {
+  const double u0 = g["center_px"]["u"], v0 = g["center_px"]["v"], angle = g["angle_rad"];
+  const double half_a = g["opening_px"].get<double>() / 2;
+  const double half_b = g["finger_width_px"].get<double>() / 2;
+  const double contact = g["contact_height_m"];
+  std::set<int> ids;
+  for (int v = 0; v < f.scene.object_id.rows; ++v) {
+    for (int u = 0; u < f.scene.object_id.cols; ++u) {
+      const double du = u - u0, dv = v - v0;
+      const double a = du * std::cos(angle) + dv * std::sin(angle);
+      const double b = -du * std::sin(angle) + dv * std::cos(angle);
+      if (std::abs(a) <= half_a && std::abs(b) <= half_b && f.scene.height_m(v, u) > contact) {
+        ids.insert(f.scene.object_id(v, u));
+      }
+    }
+  }
+  return ids;
+}
+
 class SegmentationApiTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() { server_ = new RunningServer(); }
@@ -388,6 +409,21 @@ TEST_F(SegmentationApiTest, BadTargetsAndLabelsNameTheirField) {
 
 // ---- configuration ----
 
+TEST_F(SegmentationApiTest, DeformabilityStrategyNeedsTheSegmentationModel) {
+  const Frame& f = Boxes();
+  ExpectError(server_->Send(MultipartRequest(
+                  "/v1/grasps", Upload(f, {{"strategy", "deformability", ""}}))),
+              400, "strategy");
+  ExpectError(server_->Send(MultipartRequest(
+                  "/v1/grasps", Upload(f, {{"overlay", "deformability", ""}}))),
+              400, "overlay");
+  const json info = json::parse(server_->Send(RawRequest("GET", "/v1/info")).body);
+  EXPECT_EQ(info["strategies"], json({"fge"}));
+  EXPECT_EQ(info["default_strategy"], "fge");
+  EXPECT_EQ(info["target_policies"], json({"highest", "least_deformable"}));
+  EXPECT_EQ(info["defaults"]["deformability"]["num_slices"], 5);
+}
+
 TEST(SegmentationModelConfigTest, FileEnvironmentAndFlagSetTheModel) {
   auto from_file = ApplyConfigJson({}, R"({"models": {"segmentation": "/a.pt"}})");
   ASSERT_TRUE(from_file.ok()) << from_file.error().message;
@@ -476,6 +512,94 @@ TEST(SegmentationApiModelTest, ModelAnswersWithDeformability) {
     if (g["instance_id"].get<int>() > 0) {
       EXPECT_TRUE(g["instance_deformability"].is_number());
     }
+  }
+}
+
+// strategy=deformability with the shipped model: the target is one box, every grasp is on it
+// and says so; labels given by the client are used as they are (every id confident); bad
+// fields name themselves.
+TEST(SegmentationApiModelTest, DeformabilityStrategyGraspsOneTarget) {
+  if (!std::filesystem::exists(ModelPath())) {
+    GTEST_SKIP() << "no segmentation model at " << ModelPath();
+  }
+  auto loaded = models::SegmentationModel::Load(ModelPath());
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  auto model = std::make_shared<const models::SegmentationModel>(std::move(loaded).value());
+  RunningServer server({}, nullptr, nullptr, nullptr, model);
+  const Frame& f = Boxes();
+  const json info = json::parse(server.Send(RawRequest("GET", "/v1/info")).body);
+  EXPECT_EQ(info["default_strategy"], "deformability");
+  EXPECT_EQ(info["strategies"], json({"fge", "deformability"}));
+  EXPECT_EQ(info["overlays"], json({"depth", "deformability"}));
+
+  // Labels from the PCL baseline (exact on these boxes), target 2 by request.
+  const auto labels_png = server.Send(MultipartRequest(
+      "/v1/segmentation", Upload(f, {{"method", "pcl", ""}, {"format", "labels", ""}})));
+  ASSERT_EQ(labels_png.status, 200);
+  const cv::Mat1w labels = DecodePng(labels_png.body);
+  for (const std::string policy : {"highest", "least_deformable"}) {
+    const json body = ParseOk(server.Send(MultipartRequest(
+        "/v1/grasps", Upload(f, {{"labels", labels_png.body, "l.png"},
+                                 {"target_policy", policy, ""},
+                                 {"top_k", "3", ""}}))));
+    EXPECT_EQ(body["strategy"], "deformability");
+    EXPECT_EQ(body["target"]["policy"], policy);
+    ASSERT_TRUE(body["target"]["id"].is_number()) << body.dump();
+    const int target = body["target"]["id"];
+    if (policy == "highest") {
+      // Box 2 (55 mm) is the tallest.
+      EXPECT_EQ(BoxOfInstance(labels, target, f.scene.object_id), 2);
+    }
+    ASSERT_FALSE(body["grasps"].empty());
+    for (const json& g : body["grasps"]) {
+      EXPECT_EQ(g["instance_id"], target);
+      // The fingers close on the target alone (the model may rank a box's stiffer end first,
+      // so the centre itself can lie just off the box).
+      EXPECT_EQ(ContactBoxes(f, g), std::set<int>{BoxOfInstance(labels, target, f.scene.object_id)})
+          << g.dump();
+      const json& d = g["deformability"];
+      EXPECT_EQ(d["target_policy"], policy);
+      EXPECT_EQ(d["target_by"], "policy");
+      EXPECT_GE(d["mean_deformability"].get<double>(), 0.0);
+      EXPECT_LE(d["mean_deformability"].get<double>(), 1.0);
+      EXPECT_TRUE(d["pressed_instances"].is_array());
+      EXPECT_GT(d["opening_fraction"].get<double>(), 0.0);
+      EXPECT_NEAR(g["opening_m"].get<double>(), 0.05 * d["opening_fraction"].get<double>(), 1e-9);
+    }
+  }
+  // An explicit target wins; the model segments when no labels are given.
+  const int box3 = labels(static_cast<int>(std::lround(
+                              softgrasp::testing::ProjectTablePoint(f.spec, 0.02, 0.10, 0.03).y)),
+                          static_cast<int>(std::lround(
+                              softgrasp::testing::ProjectTablePoint(f.spec, 0.02, 0.10, 0.03).x)));
+  ASSERT_GT(box3, 0);
+  const json chosen = ParseOk(server.Send(MultipartRequest(
+      "/v1/grasps", Upload(f, {{"labels", labels_png.body, "l.png"},
+                               {"target", std::to_string(box3), ""}}))));
+  EXPECT_EQ(chosen["target"]["id"], box3);
+  for (const json& g : chosen["grasps"]) {
+    EXPECT_EQ(ContactBoxes(f, g), std::set<int>{3}) << g.dump();
+    EXPECT_EQ(g["deformability"]["target_by"], "request");
+  }
+  const json segmented = ParseOk(server.Send(MultipartRequest("/v1/grasps", Upload(f))));
+  EXPECT_EQ(segmented["segmentation"]["source"], "model");
+  EXPECT_GT(segmented["timing_ms"]["segmentation"].get<double>(), 0.0);
+  // The picture: the deformability map with the target outlined, the grasps over it.
+  const auto png = server.Send(MultipartRequest(
+      "/v1/grasps", Upload(f, {{"format", "png", ""}, {"overlay", "deformability", ""}})));
+  ASSERT_EQ(png.status, 200);
+  EXPECT_EQ(DecodePng(png.body).size(), cv::Size(640, 480));
+
+  for (const auto& [field, value] :
+       std::vector<std::pair<std::string, std::string>>{{"target_policy", "tallest"},
+                                                        {"opening_fractions", "1,0.5"},
+                                                        {"opening_fractions", "0,1"},
+                                                        {"opening_fractions", "a"},
+                                                        {"slice_step_mm", "45"},
+                                                        {"num_slices", "0"},
+                                                        {"min_score", "2"}}) {
+    ExpectError(server.Send(MultipartRequest("/v1/grasps", Upload(f, {{field, value, ""}}))), 400,
+                field);
   }
 }
 

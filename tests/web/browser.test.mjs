@@ -234,8 +234,8 @@ describe('softgrasp page in chromium', () => {
     // (A segmentation model may be listed too, once one ships: the objects panel's business.)
     assert.deepEqual(info.models.filter((m) => m.kind === 'stiffness').map((m) => [m.name, m.kind]),
       [['pix2stiffness', 'stiffness']]);
-    assert.deepEqual(info.strategies, ['fge', 'stiffness']);
-    assert.equal(info.default_strategy, 'stiffness');
+    assert.deepEqual(info.strategies, ['fge', 'stiffness', 'deformability']);
+    assert.equal(info.default_strategy, 'deformability');
     // What the model says about the frame, straight from the API: the bar is hard, the floor is
     // background. The page must show exactly that.
     const map = readNpyFloat32(Buffer.from(await (await fetch(`${base}/v1/stiffness`,
@@ -250,7 +250,11 @@ describe('softgrasp page in chromium', () => {
     const strategy = await page.$eval('#strategy', (select) => ({
       options: [...select.options].map((o) => o.value), value: select.value,
     }));
-    assert.deepEqual(strategy, { options: ['fge', 'stiffness'], value: 'stiffness' });
+    // With the segmentation model shipped too, deformability is preselected; pick stiffness.
+    assert.deepEqual(strategy,
+      { options: ['fge', 'stiffness', 'deformability'], value: 'deformability' });
+    await page.selectOption('#strategy', 'stiffness');
+    assert.equal(await page.isVisible('#target-policy-field'), false);
     assert.equal(await page.isVisible('#picture-choice'), false, 'no view switch before results');
 
     const result = await findGrasps(page);
@@ -266,6 +270,7 @@ describe('softgrasp page in chromium', () => {
     assert.equal(await page.getAttribute('#grasp-canvas', 'data-picture'), 'depth');
     assert.equal(await page.isVisible('#stiffness-legend'), false);
     assert.equal(await page.isVisible('#download-stiffness'), true);
+    assert.equal(await page.isVisible('#picture-deformability-label'), false);
     assert.equal(await page.getAttribute('#download-stiffness', 'download'), 'single_depth_0-stiffness.png');
 
     // Keyboard: the view switch is a radio group; the right arrow moves from Depth to Stiffness.
@@ -310,6 +315,51 @@ describe('softgrasp page in chromium', () => {
     assert.ok(widths[0] <= widths[1], `no sideways scrolling: ${widths}`);
     assert.equal(await page.isVisible('#stiffness-legend'), true);
     await page.screenshot({ path: artifactPath('stiffness-phone.png'), fullPage: true });
+    assert.deepEqual(errors, []);
+    await context.close();
+  });
+
+  it('grasps one target object with the deformability strategy over its deformability map', async () => {
+    const info = await (await fetch(`${base}/v1/info`)).json();
+    assert.deepEqual(info.target_policies, ['highest', 'least_deformable']);
+    assert.deepEqual(info.overlays, ['depth', 'stiffness', 'deformability']);
+    const { context, page, errors } = await openPage();
+    assert.equal(await page.inputValue('#strategy'), 'deformability');
+    assert.equal(await page.isVisible('#target-policy-field'), true);
+    assert.equal(await page.inputValue('#target_policy'), 'highest');
+    await page.selectOption('#target_policy', 'least_deformable');
+
+    const result = await findGrasps(page);
+    assert.equal(result.strategy, 'deformability');
+    assert.equal(result.target.policy, 'least_deformable');
+    assert.ok(Number.isInteger(result.target.id) && result.target.id > 0, JSON.stringify(result.target));
+    assert.ok(result.grasps.length > 0);
+    for (const g of result.grasps) {
+      assert.equal(g.instance_id, result.target.id);
+      assert.equal(g.deformability.target_policy, 'least_deformable');
+      assert.ok(g.deformability.mean_deformability >= 0 && g.deformability.mean_deformability <= 1);
+    }
+    assert.match(await page.textContent('#grasp-summary'),
+      new RegExp(`target object ${result.target.id} \\(least deformable\\)`));
+
+    // The deformability picture: the map with the target outlined, the legend's ends say what
+    // the colours mean, the best grasp still green on top.
+    assert.equal(await page.isVisible('#picture-deformability-label'), true);
+    await page.check('#picture-deformability');
+    assert.equal(await page.getAttribute('#grasp-canvas', 'data-picture'), 'deformability');
+    assert.equal(await page.isVisible('#stiffness-legend'), true);
+    assert.equal(await page.textContent('#legend-high'), 'rigid 0.0');
+    assert.match(await page.getAttribute('#grasp-canvas', 'aria-label'), /^Deformability map/);
+    assert.deepEqual(await canvasPixels(page, '#grasp-canvas', fingerCentres(result.grasps[0])),
+      [GREEN, GREEN]);
+    assert.equal(await page.isVisible('#download-deformability'), true);
+    await page.screenshot({ path: artifactPath('deformability.png'), fullPage: true });
+    // Back to the stiffness picture: its legend's ends again.
+    await page.check('#picture-stiffness');
+    assert.equal(await page.textContent('#legend-high'), 'hard 1.0');
+
+    await page.selectOption('#strategy', 'fge');
+    assert.equal(await page.isVisible('#target-policy-field'), false);
     assert.deepEqual(errors, []);
     await context.close();
   });
@@ -404,12 +454,12 @@ describe('softgrasp page in chromium', () => {
   });
 });
 
-describe('softgrasp page in chromium, server without a stiffness model', () => {
+describe('softgrasp page in chromium, server without models', () => {
   let plainServer;
   let plainBase;
 
   before(async () => {
-    plainServer = startServer({ stiffnessModel: 'none' });
+    plainServer = startServer({ stiffnessModel: 'none', segmentationModel: 'none' });
     plainBase = await plainServer.ready;
   });
 
@@ -442,7 +492,8 @@ describe('softgrasp page in chromium, server without a stiffness model', () => {
     for (const g of result.grasps) assert.equal(g.mean_stiffness, null);
     assert.deepEqual(await canvasPixels(page, '#grasp-canvas', fingerCentres(result.grasps[0])),
       [GREEN, GREEN]);
-    for (const hidden of ['#picture-choice', '#stiffness-legend', '#download-stiffness']) {
+    for (const hidden of ['#picture-choice', '#stiffness-legend', '#download-stiffness',
+      '#download-deformability', '#target-policy-field']) {
       assert.equal(await page.isVisible(hidden), false, hidden);
     }
     assert.equal(await page.getAttribute('#grasp-canvas', 'data-picture'), 'depth');

@@ -110,6 +110,10 @@ describe('stiffness view', () => {
     assert.equal(withModel.selected, 'stiffness');
     assert.equal(withModel.options[0].label, 'FGE (fast graspability evaluation)');
     assert.match(withModel.options[1].label, /^Stiffness/);
+    const both = strategyChoices({ strategies: ['fge', 'stiffness', 'deformability'],
+      default_strategy: 'deformability' });
+    assert.equal(both.selected, 'deformability');
+    assert.match(both.options[2].label, /^Deformability-aware/);
     assert.deepEqual(strategyChoices({ strategies: ['fge'], default_strategy: 'fge' }),
       { options: [{ value: 'fge', label: 'FGE (fast graspability evaluation)' }], selected: 'fge' });
     // A default that is not offered, an unknown name, no list, no info.

@@ -8,7 +8,9 @@
 // depth and intrinsics, gives the stiffness map the grasps can be drawn on instead. Once the
 // objects panel (src/segmentation.js) has segmented the image, the requests carry its label image
 // as the `labels` part (each grasp then names its object, at no extra cost: the service does not
-// segment again), and target=ID when an object is picked there.
+// segment again), and target=ID when an object is picked there. With strategy=deformability the
+// target policy goes along, and a fifth request (format=png&draw=none&overlay=deformability with
+// the chosen target) gives the segmentation model's deformability map with the target outlined.
 
 import { call, describeError } from './api.js';
 import { angleDegrees, graspShape, isDrawable } from './grasp_geometry.js';
@@ -63,15 +65,36 @@ function applyDefaults(root, info) {
     strategy.append(option);
   }
   strategy.value = choices.selected;
+  const policy = root.querySelector('#target_policy');
+  const policies = info && Array.isArray(info.target_policies) ? info.target_policies : [];
+  for (const option of [...policy.options]) {
+    if (policies.length && !policies.includes(option.value)) option.remove();
+  }
+  const defaultPolicy = info && info.defaults && info.defaults.deformability
+    && info.defaults.deformability.target_policy;
+  if (policies.includes(defaultPolicy)) policy.value = defaultPolicy;
+}
+
+/** The target policy select only matters to strategy=deformability. */
+function showPolicyField(root) {
+  root.querySelector('#target-policy-field').hidden =
+    root.querySelector('#strategy').value !== 'deformability';
 }
 
 const PICTURE_CAPTIONS = {
   depth: 'Depth colour-mapped (near = warm, missing = black);',
   stiffness: 'Stiffness map of the service\'s model (soft blue … hard red, background black);',
+  deformability: 'Deformability map of the segmentation model (very soft blue … rigid red, '
+    + 'background black), the target object outlined in white;',
+};
+const LEGEND_ENDS = {
+  stiffness: ['soft 0.1', 'hard 1.0'],
+  deformability: ['very soft 1.0', 'rigid 0.0'],
 };
 const PICTURE_LABELS = {
   depth: 'Colour-mapped depth with the grasps drawn over it',
   stiffness: 'Stiffness map with the grasps drawn over it',
+  deformability: 'Deformability map with the target outlined and the grasps drawn over it',
 };
 
 /** The request form: files and every non-empty field, and the objects' labels and target. */
@@ -84,7 +107,11 @@ function buildForm(root, depthFile, objects) {
     const value = root.querySelector(`#${name}`).value.trim();
     if (value !== '') form.append(name, value);
   }
-  form.append('strategy', root.querySelector('#strategy').value);
+  const strategy = root.querySelector('#strategy').value;
+  form.append('strategy', strategy);
+  if (strategy === 'deformability') {
+    form.append('target_policy', root.querySelector('#target_policy').value);
+  }
   if (objects && objects.labels) {
     form.append('labels', objects.labels, 'labels.png');
     if (objects.target) form.append('target', String(objects.target));
@@ -190,6 +217,17 @@ function fillTable(tbody, grasps, selected, onSelect) {
   });
 }
 
+/** The deformability picture's request: the grasps form with the answer's target outlined. */
+function deformabilityForm(body, result) {
+  const form = new FormData();
+  for (const [name, value] of body.entries()) {
+    if (name !== 'target') form.append(name, value);
+  }
+  const target = result.target && Number.isInteger(result.target.id) ? result.target.id : 0;
+  if (target > 0) form.append('target', String(target));
+  return form;
+}
+
 function summaryText(result, fileName) {
   const n = result.grasps.length;
   const image = result.image || {};
@@ -199,7 +237,9 @@ function summaryText(result, fileName) {
     `${image.format}, ${missing} % missing, camera ${camera.source === 'request' ? 'from the request' : 'default'}` +
     ` (f ${fixed(camera.fx, 1)} px), ${fixed(result.timing_ms && result.timing_ms.total, 0)} ms` +
     `${result.strategy ? `, strategy ${result.strategy}` : ''}` +
-    `${result.stiffness_model ? ` (model ${result.stiffness_model})` : ''}.`;
+    `${result.stiffness_model ? ` (model ${result.stiffness_model})` : ''}` +
+    `${result.target ? `, target ${Number.isInteger(result.target.id) ? `object ${result.target.id}`
+      : 'none found'} (${result.target.policy.replace('_', ' ')})` : ''}.`;
 }
 
 export function mountGraspsPanel(root, info) {
@@ -217,7 +257,10 @@ export function mountGraspsPanel(root, info) {
   const pictureCaption = root.querySelector('#picture-caption');
   const legend = root.querySelector('#stiffness-legend');
   const stiffnessDownload = root.querySelector('#download-stiffness');
+  const deformabilityDownload = root.querySelector('#download-deformability');
   applyDefaults(root, info);
+  showPolicyField(root);
+  root.querySelector('#strategy').addEventListener('change', () => showPolicyField(root));
   // Fixed for the page's life: info is read once at load.
   const hasStiffness = stiffnessModel(info) !== null;
 
@@ -238,7 +281,11 @@ export function mountGraspsPanel(root, info) {
     const bitmap = state.bitmaps[picture];
     pictureCaption.textContent = PICTURE_CAPTIONS[picture];
     canvas.setAttribute('aria-label', PICTURE_LABELS[picture]);
-    legend.hidden = picture !== 'stiffness';
+    legend.hidden = !LEGEND_ENDS[picture];
+    if (LEGEND_ENDS[picture]) {
+      [root.querySelector('#legend-low').textContent, root.querySelector('#legend-high').textContent]
+        = LEGEND_ENDS[picture];
+    }
     canvas.dataset.picture = picture; // for tests and scripts: what the canvas shows
     if (bitmap) drawPicture(canvas, bitmap, state.grasps, state.selected, showGrasps.checked);
   };
@@ -316,8 +363,13 @@ export function mountGraspsPanel(root, info) {
             : null,
         ]);
         const result = JSON.parse(json);
+        const deformabilityPng = result.strategy === 'deformability'
+          ? await call('/v1/grasps?format=png&draw=none&overlay=deformability',
+            { method: 'POST', body: deformabilityForm(body, result) }).then((r) => r.blob())
+          : null;
         const bitmaps = { depth: await createImageBitmap(depthPng) };
         if (stiffnessPng) bitmaps.stiffness = await createImageBitmap(stiffnessPng);
+        if (deformabilityPng) bitmaps.deformability = await createImageBitmap(deformabilityPng);
         for (const old of Object.values(state.bitmaps)) old.close();
         Object.assign(state, {
           grasps: result.grasps,
@@ -332,7 +384,17 @@ export function mountGraspsPanel(root, info) {
         setDownload(root.querySelector('#download-depth'), depthPng, `${stem}-depth.png`);
         if (stiffnessPng) setDownload(stiffnessDownload, stiffnessPng, `${stem}-stiffness.png`);
         stiffnessDownload.hidden = !stiffnessPng;
-        pictureChoice.hidden = !stiffnessPng;
+        if (deformabilityPng) {
+          setDownload(deformabilityDownload, deformabilityPng, `${stem}-deformability.png`);
+        }
+        deformabilityDownload.hidden = !deformabilityPng;
+        root.querySelector('#picture-stiffness-label').hidden = !stiffnessPng;
+        root.querySelector('#picture-deformability-label').hidden = !deformabilityPng;
+        pictureChoice.hidden = !stiffnessPng && !deformabilityPng;
+        if (!bitmaps[state.picture]) {
+          state.picture = 'depth';
+          root.querySelector('#picture-depth').checked = true;
+        }
         root.querySelector('#grasp-summary').textContent = summaryText(result, depthFile.name);
         fillTable(tbody, state.grasps, state.selected, select);
         results.hidden = false;

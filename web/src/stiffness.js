@@ -11,6 +11,7 @@ export function stiffnessModel(info) {
 const STRATEGY_LABELS = {
   fge: 'FGE (fast graspability evaluation)',
   stiffness: 'Stiffness-aware',
+  deformability: 'Deformability-aware (one target object)',
 };
 
 /**

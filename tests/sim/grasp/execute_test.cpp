@@ -521,6 +521,11 @@ TEST(ExecuteGrasp, RejectsBadGraspsAndGrippers) {
     p.finger_width_m = 0.0;
     expect_invalid(ok_grasp, p, "finger_width_m");
     p = ok_gripper;
+    p.max_press_force_n = -1.0;
+    expect_invalid(ok_grasp, p, "max_press_force_n");
+    p.max_press_force_n = nan;
+    expect_invalid(ok_grasp, p, "max_press_force_n");
+    p = ok_gripper;
     p.finger_thickness_m = -0.008;
     expect_invalid(ok_grasp, p, "finger_thickness_m");
     p = ok_gripper;
