@@ -2,11 +2,14 @@
 // documented, and real responses match their documented schemas.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <utility>
 
+#include "service/models/segmentation_model.h"
 #include "service/rest/api.h"
 #include "tests/rest/openapi_schema.h"
 #include "tests/rest/server_fixture.h"
@@ -205,6 +208,38 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
   EXPECT_EQ(unknown.status, 422);
   EXPECT_EQ(validator.Validate(json::parse(unknown.body), error_schema),
             std::vector<std::string>{});
+}
+
+// strategy=deformability with the shipped segmentation model (skipped without one).
+TEST(OpenApiContractTest, DeformabilityAnswersMatchTheirSchemas) {
+  const std::string path = std::string(SOFTGRASP_SOURCE_DIR) + "/models/segmentation.pt";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no segmentation model at " << path;
+  auto loaded = models::SegmentationModel::Load(path);
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  auto model = std::make_shared<const models::SegmentationModel>(std::move(loaded).value());
+  testing::RunningServer server({}, nullptr, nullptr, nullptr, model);
+  const json spec = LoadSpec();
+  const SchemaValidator validator(spec);
+  const auto info = server.Send(testing::RawRequest("GET", "/v1/info"));
+  EXPECT_EQ(validator.Validate(json::parse(info.body), spec["components"]["schemas"]["Info"]),
+            std::vector<std::string>{});
+  for (const char* policy : {"highest", "least_deformable"}) {
+    const auto grasps = server.Send(testing::MultipartRequest(
+        "/v1/grasps",
+        {{"depth",
+          testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")),
+          "d.npy"},
+         {"intrinsics",
+          testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")),
+          "p.intr"},
+         {"target_policy", policy, ""}}));
+    ASSERT_EQ(grasps.status, 200) << grasps.body;
+    const json body = json::parse(grasps.body);
+    EXPECT_EQ(body["strategy"], "deformability");
+    ASSERT_FALSE(body["grasps"].empty());
+    EXPECT_EQ(validator.Validate(body, spec["components"]["schemas"]["GraspResponse"]),
+              std::vector<std::string>{});
+  }
 }
 
 TEST(OpenApiContractTest, DisabledRobotRoutesAnswerTheDocumented503) {
