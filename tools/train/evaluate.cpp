@@ -20,6 +20,7 @@
 #include "sim/dataset/scene_gen.h"
 #include "sim/grasp/execute.h"
 #include "sim/progress.h"
+#include "tools/train/bin_roi.h"
 #include "tools/train/bootstrap.h"
 
 namespace softgrasp::tools {
@@ -154,29 +155,6 @@ core::Result<sim::SceneSpec> SpecFromIndex(const json& index) {
                            std::string("index.json lacks scene parameters: ") + e.what(), "data");
   }
   return spec;
-}
-
-/// 255 inside the bin's inner floor area as seen by the camera (shrunk by `margin_px`): the
-/// workspace ROI of a bin-picking cell. Both planners and the heuristic only see heights there,
-/// since FGE alone would happily grasp the bin's free-standing walls.
-cv::Mat1b BinRoi(const sim::SceneSpec& spec, const core::Camera& cam, int margin_px) {
-  cv::Mat1b roi(cam.height, cam.width, static_cast<unsigned char>(0));
-  const Eigen::Isometry3d camera_from_world = spec.render.world_from_camera.inverse();
-  std::vector<cv::Point> corners;
-  for (const auto& [sx, sy] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
-    const Eigen::Vector3d p =
-        camera_from_world * Eigen::Vector3d(sx * spec.support.inner_size_x_m / 2,
-                                            sy * spec.support.inner_size_y_m / 2, 0.0);
-    corners.emplace_back(static_cast<int>(std::lround(cam.fx * p.x() / p.z() + cam.cx)),
-                         static_cast<int>(std::lround(cam.fy * p.y() / p.z() + cam.cy)));
-  }
-  cv::fillConvexPoly(roi, corners, cv::Scalar(255));
-  if (margin_px > 0) {
-    cv::erode(
-        roi, roi,
-        cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * margin_px + 1, 2 * margin_px + 1)));
-  }
-  return roi;
 }
 
 // Bootstrap over grasp scenes for the 95 % intervals (tools/train/bootstrap.h): fixed, so the

@@ -21,6 +21,7 @@
 #include "sim/progress.h"
 #include "tools/train/args.h"
 #include "tools/train/evaluate.h"
+#include "tools/train/evaluate_tasks.h"
 #include "tools/train/segmentation_cli.h"
 
 namespace {
@@ -45,7 +46,13 @@ constexpr const char* kUsage =
     "  Prints JSON: RMSE (0-255) and MSSIM of the model and two baselines, and the grasp\n"
     "  metrics (GT mean stiffness in the grasp region; simulated execution) vs classic FGE,\n"
     "  with 95 % bootstrap intervals. --compare runs a second model's planner on the same\n"
-    "  scenes and compares it with the first's (paired).\n";
+    "  scenes and compares it with the first's (paired).\n"
+    "       softgrasp-train evaluate-tasks --segmentation-model MODEL [--stiffness-model MODEL]\n"
+    "                                [--tasks clutter,brushes,obstacles] [--clutter-scenes N]\n"
+    "                                [--brush-scenes N] [--obstacle-scenes N] [--bins N]\n"
+    "                                [--max-attempts N] [--seed S] [--threads T] [--out FILE]\n"
+    "  The thesis' three tasks in the simulator (docs/deformability.md): fge, stiffness and\n"
+    "  deformability (both target policies) on the same scenes; JSON with 95 % intervals.\n";
 
 int Fail(const std::string& message) {
   std::cerr << "softgrasp-train: " << message << "\n";
@@ -166,6 +173,7 @@ int main(int argc, char** argv) {
   for (int i = 2; i < argc; ++i) args.rest.emplace_back(argv[i]);
   if (command == "stiffness") return RunStiffness(std::move(args));
   if (command == "evaluate") return softgrasp::tools::RunEvaluate(args.rest);
+  if (command == "evaluate-tasks") return softgrasp::tools::RunEvaluateTasks(args.rest);
   if (command == "segmentation") return softgrasp::tools::RunSegmentationTrain(args.rest);
   if (command == "evaluate-segmentation") {
     return softgrasp::tools::RunSegmentationEvaluate(args.rest);

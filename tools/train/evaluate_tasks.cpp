@@ -1,0 +1,628 @@
+#include "tools/train/evaluate_tasks.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+#include <optional>
+#include <string>
+
+#include "service/core/fge.h"
+#include "service/core/fge_deformability.h"
+#include "service/core/fge_stiffness.h"
+#include "service/core/preprocess.h"
+#include "service/models/segmentation_model.h"
+#include "service/models/stiffness_model.h"
+#include "sim/dataset/scene_gen.h"
+#include "sim/grasp/execute.h"
+#include "sim/progress.h"
+#include "sim/render/render.h"
+#include "tools/train/args.h"
+#include "tools/train/bin_roi.h"
+#include "tools/train/bootstrap.h"
+
+namespace softgrasp::tools {
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kBootstrapResamples = 2000;
+constexpr std::uint64_t kBootstrapSeed = 1;
+/// Brushes: the task succeeds when both finger contacts are at least this stiff (the handle is
+/// 0.9, the head 0.2; docs/sim-catalogue.md).
+constexpr float kHardPart = 0.5f;
+/// Obstacles: the target is the non-sponge object with most sponge pixels in a ring this wide
+/// around it, at least kMinSpongeRing of the ring.
+constexpr int kRingPx = 10;
+constexpr double kMinSpongeRing = 0.25;
+/// A model instance is the named target when its IoU with the target's true mask reaches this.
+constexpr double kMinTargetIou = 0.5;
+/// Bin clearing stops after this many failed picks in a row.
+constexpr int kMaxFailuresInARow = 3;
+/// The workspace ROI's margin inside the bin walls, pixels (as `evaluate`).
+constexpr int kBinMarginPx = 3;
+
+int Fail(const std::string& message) {
+  std::cerr << "softgrasp-train evaluate-tasks: " << message << "\n";
+  return 2;
+}
+
+json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+enum class Task { kClutter, kBrushes, kObstacles };
+
+const char* TaskName(Task t) {
+  switch (t) {
+    case Task::kClutter:
+      return "clutter";
+    case Task::kBrushes:
+      return "brushes";
+    case Task::kObstacles:
+      return "obstacles";
+  }
+  return "?";
+}
+
+/// The scenes of each task: validation shapes (never seen in training), in the default bin.
+sim::SceneSpec TaskSpec(Task task) {
+  sim::SceneSpec spec;
+  spec.split = sim::ShapeSplit::kVal;
+  switch (task) {
+    case Task::kClutter:  // Table 5.1: hollow objects
+      spec.min_objects = 3;
+      spec.max_objects = 8;
+      spec.categories = {"bottle", "box", "can", "cup"};
+      break;
+    case Task::kBrushes:  // Table 5.2: six brushes in a pile
+      spec.min_objects = 6;
+      spec.max_objects = 6;
+      spec.categories = {"brush"};
+      break;
+    case Task::kObstacles:  // Table 5.3: targets among sponges (six in ten draws are sponges)
+      spec.min_objects = 6;
+      spec.max_objects = 10;
+      spec.categories = {"box",    "can",    "bottle", "block",  "sponge",
+                         "sponge", "sponge", "sponge", "sponge", "sponge"};
+      break;
+  }
+  return spec;
+}
+
+struct Planner {
+  enum class Kind { kFge, kStiffness, kDeformability } kind;
+  core::TargetPolicy policy = core::TargetPolicy::kHighest;
+  std::string name;
+};
+
+std::vector<Planner> Planners(bool stiffness_model) {
+  std::vector<Planner> out = {{Planner::Kind::kFge, {}, "fge"}};
+  if (stiffness_model) out.push_back({Planner::Kind::kStiffness, {}, "stiffness"});
+  out.push_back({Planner::Kind::kDeformability, core::TargetPolicy::kHighest,
+                 "deformability_highest"});
+  out.push_back({Planner::Kind::kDeformability, core::TargetPolicy::kLeastDeformable,
+                 "deformability_least_deformable"});
+  return out;
+}
+
+struct Models {
+  const models::SegmentationModel* segmentation = nullptr;
+  const models::StiffnessModel* stiffness = nullptr;
+};
+
+struct Plan {
+  std::vector<core::Grasp> grasps;
+  double detect_ms = 0;       ///< preprocessing, the planner's models and the planner
+  bool target_found = true;   ///< a named target matched an instance (deformability)
+};
+
+/// The model instance that best matches `mask` (IoU >= kMinTargetIou), 0 = none.
+int MatchingInstance(const cv::Mat1w& labels, const cv::Mat1b& mask) {
+  double max_id = 0;
+  cv::minMaxLoc(labels, nullptr, &max_id);
+  int best = 0;
+  double best_iou = kMinTargetIou;
+  const int mask_px = cv::countNonZero(mask);
+  for (int id = 1; id <= static_cast<int>(max_id); ++id) {
+    const cv::Mat1b inst = labels == id;
+    const int inter = cv::countNonZero(inst & mask);
+    if (inter == 0) continue;
+    const double iou = static_cast<double>(inter) / (cv::countNonZero(inst) + mask_px - inter);
+    if (iou >= best_iou) {
+      best_iou = iou;
+      best = id;
+    }
+  }
+  return best;
+}
+
+/// One planner's whole detection on one frame, timed. `target_mask` (may be empty): the named
+/// target's true visible pixels; FGE and stiffness then grasp only there, deformability takes
+/// the model instance matching it.
+Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Camera& camera,
+                const cv::Mat1b& roi, const cv::Mat1b& target_mask, const Models& models) {
+  const auto t0 = Clock::now();
+  Plan out;
+  auto pre = core::Preprocess(depth, camera);
+  if (!pre.ok()) return out;
+  const core::Scene scene = std::move(pre).value();
+  core::Scene in_bin = scene;
+  in_bin.height_m = scene.height_m.clone();
+  in_bin.height_m.setTo(0.0f, roi == 0);
+  const core::Gripper gripper;
+  switch (p.kind) {
+    case Planner::Kind::kFge:
+      if (!target_mask.empty()) core::RestrictContact(in_bin, target_mask, 0.0);
+      out.grasps = core::DetectGraspsFge(in_bin, camera, gripper);
+      break;
+    case Planner::Kind::kStiffness: {
+      const cv::Mat1f stiffness = models.stiffness->PredictScene(scene);
+      if (!target_mask.empty()) core::RestrictContact(in_bin, target_mask, 0.0);
+      out.grasps = core::DetectGraspsStiffness(in_bin, camera, stiffness, gripper);
+      break;
+    }
+    case Planner::Kind::kDeformability: {
+      const models::SegmentationOutput seg = models.segmentation->SegmentScene(scene);
+      core::DeformabilityParams params;
+      params.policy = p.policy;
+      if (!target_mask.empty()) {
+        params.target_id = MatchingInstance(seg.instances.labels, target_mask);
+        if (params.target_id == 0) {
+          out.target_found = false;
+          break;
+        }
+      }
+      const auto planned = core::DetectGraspsDeformability(
+          in_bin, camera, {seg.instances.labels, seg.instances.scores, seg.deformability},
+          gripper, params);
+      for (const auto& dg : planned.grasps) out.grasps.push_back(dg.grasp);
+      break;
+    }
+  }
+  out.detect_ms = MsSince(t0);
+  return out;
+}
+
+struct Mean {
+  double sum = 0;
+  int n = 0;
+  void Add(double v) {
+    if (std::isfinite(v)) sum += v, ++n;
+  }
+  double value() const { return n > 0 ? sum / n : std::nan(""); }
+};
+
+struct CategoryStats {
+  int grasps = 0, succeeded = 0, damaged = 0;
+  Mean deformation;
+};
+
+/// One planner on one task's one-grasp scenes: per-scene figures in scene order (NaN: the
+/// scene has no such figure) for the paired bootstrap.
+struct Stats {
+  int attempts = 0, no_grasp = 0, target_not_found = 0, succeeded = 0, task_successes = 0,
+      damaged = 0, pressed = 0;
+  std::map<std::string, int> outcomes;
+  std::map<std::string, std::string> example_reason;
+  std::map<std::string, CategoryStats> by_category;  // the object the fingers closed on
+  Mean neighbour_deformation;
+  std::vector<double> success, task, deformation, damage, detect_ms;
+
+  json ToJson() const {
+    const std::size_t n = success.size();
+    const auto mean_of = [](const std::vector<double>& v) {
+      return [&v](std::span<const int> k) { return SampleMean(v, k); };
+    };
+    const auto interval = [&](const std::vector<double>& v) {
+      if (n == 0) return json();
+      const Interval ci = BootstrapInterval(static_cast<int>(n), mean_of(v), kBootstrapResamples,
+                                            kBootstrapSeed);
+      return json::array({Num(ci.low), Num(ci.high)});
+    };
+    std::vector<int> all(n);
+    for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
+    std::vector<double> ms = detect_ms;
+    std::sort(ms.begin(), ms.end());
+    json cats = json::object();
+    for (const auto& [c, s] : by_category) {
+      cats[c] = {{"grasps", s.grasps},
+                 {"succeeded", s.succeeded},
+                 {"damaged", s.damaged},
+                 {"mean_deformation_rate", Num(s.deformation.value())}};
+    }
+    return {{"scenes", n},
+            {"attempts", attempts},
+            {"no_grasp", no_grasp},
+            {"target_not_found", target_not_found},
+            {"success_rate", Num(SampleMean(success, all))},
+            {"task_success_rate", Num(SampleMean(task, all))},
+            {"mean_deformation_rate", Num(SampleMean(deformation, all))},
+            {"damage_rate", Num(SampleMean(damage, all))},
+            {"ci95",
+             {{"success_rate", interval(success)},
+              {"task_success_rate", interval(task)},
+              {"mean_deformation_rate", interval(deformation)},
+              {"damage_rate", interval(damage)}}},
+            {"grasps_pressing_neighbours", pressed},
+            {"mean_neighbour_deformation_rate", Num(neighbour_deformation.value())},
+            {"detect_ms", {{"median", ms.empty() ? json() : json(ms[ms.size() / 2])},
+                           {"p90", ms.empty() ? json() : json(ms[ms.size() * 9 / 10])},
+                           {"max", ms.empty() ? json() : json(ms.back())}}},
+            {"outcomes", outcomes},
+            {"example_reason", example_reason},
+            {"by_category", cats}};
+  }
+};
+
+/// Paired comparison with FGE on the same scenes: deformation as a ratio, success and task
+/// success as differences, each with its 95 % interval.
+json Versus(const Stats& s, const Stats& base) {
+  const std::size_t n = base.success.size();
+  if (n == 0 || s.success.size() != n) return json();
+  const std::vector<std::pair<const char*, SceneStatistic>> statistics = {
+      {"deformation_ratio",
+       [&](std::span<const int> k) {
+         return SampleMean(s.deformation, k) / SampleMean(base.deformation, k);
+       }},
+      {"damage_ratio",
+       [&](std::span<const int> k) {
+         return SampleMean(s.damage, k) / SampleMean(base.damage, k);
+       }},
+      {"success_difference",
+       [&](std::span<const int> k) {
+         return SampleMean(s.success, k) - SampleMean(base.success, k);
+       }},
+      {"task_success_difference", [&](std::span<const int> k) {
+         return SampleMean(s.task, k) - SampleMean(base.task, k);
+       }}};
+  std::vector<int> all(n);
+  for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
+  json out = json::object();
+  for (const auto& [name, statistic] : statistics) {
+    const Interval ci = BootstrapInterval(static_cast<int>(n), statistic, kBootstrapResamples,
+                                          kBootstrapSeed);
+    out[name] = {{"value", Num(statistic(all))},
+                 {"ci95", json::array({Num(ci.low), Num(ci.high)})}};
+  }
+  return out;
+}
+
+std::string CategoryOf(const sim::SimScene& scene, int id) {
+  const sim::PlacedObject* o = scene.Find(id);
+  return o && o->object ? o->object->category : "support";
+}
+
+/// Executes a plan's best grasp and records it.
+void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
+            const Eigen::Isometry3d& world_from_camera, const Plan& plan, int target_id,
+            Stats* s) {
+  s->detect_ms.push_back(plan.detect_ms);
+  s->success.push_back(0.0);
+  s->task.push_back(0.0);
+  s->deformation.push_back(std::nan(""));
+  s->damage.push_back(std::nan(""));
+  if (!plan.target_found) ++s->target_not_found;
+  if (plan.grasps.empty()) {
+    ++s->no_grasp;
+    return;
+  }
+  ++s->attempts;
+  auto exec = sim::ExecuteGrasp(scene, raycaster,
+                                sim::SimGraspFromCamera(plan.grasps.front(), world_from_camera),
+                                sim::SimGripper{});
+  if (!exec.ok()) {
+    ++s->outcomes["error"];
+    return;
+  }
+  const sim::GraspExecution& e = exec.value();
+  const char* outcome = sim::GraspOutcomeName(e.outcome);
+  ++s->outcomes[outcome];
+  s->example_reason.emplace(outcome, e.reason);
+  CategoryStats& cat = s->by_category[CategoryOf(scene, e.instance_id)];
+  ++cat.grasps;
+  s->damage.back() = e.damaged ? 1.0 : 0.0;
+  if (e.outcome == sim::GraspOutcome::kSucceeded || e.outcome == sim::GraspOutcome::kSlipped) {
+    s->deformation.back() = e.deformation_rate;
+    cat.deformation.Add(e.deformation_rate);
+  }
+  if (!e.pressed.empty()) ++s->pressed;
+  for (const auto& p : e.pressed) s->neighbour_deformation.Add(p.deformation_rate);
+  if (e.damaged) ++s->damaged, ++cat.damaged;
+  if (!e.succeeded()) return;
+  ++s->succeeded;
+  ++cat.succeeded;
+  s->success.back() = 1.0;
+  bool task_ok = true;
+  if (task == Task::kBrushes) {
+    task_ok = std::min(e.stiffness_left, e.stiffness_right) >= kHardPart;
+  } else if (task == Task::kObstacles) {
+    task_ok = e.instance_id == target_id && !e.damaged;
+  }
+  if (task_ok) {
+    ++s->task_successes;
+    s->task.back() = 1.0;
+  }
+}
+
+/// Obstacles: the non-sponge object with the largest sponge share of the ring around its
+/// visible mask (at least kMinSpongeRing); 0 when none qualifies.
+int PickTarget(const sim::SimScene& scene, const cv::Mat1w& labels) {
+  cv::Mat1b sponge(labels.size(), static_cast<unsigned char>(0));
+  for (const auto& o : scene.objects) {
+    if (o.object && o.object->category == "sponge") sponge.setTo(255, labels == o.instance_id);
+  }
+  const cv::Mat kernel =
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * kRingPx + 1, 2 * kRingPx + 1));
+  int best = 0;
+  double best_share = kMinSpongeRing;
+  for (const auto& o : scene.objects) {
+    if (!o.object || o.object->category == "sponge") continue;
+    const cv::Mat1b mask = labels == o.instance_id;
+    if (cv::countNonZero(mask) < 200) continue;  // mostly hidden: not a fair target
+    cv::Mat1b ring;
+    cv::dilate(mask, ring, kernel);
+    ring &= ~mask;
+    const int ring_px = cv::countNonZero(ring);
+    if (ring_px == 0) continue;
+    const double share = static_cast<double>(cv::countNonZero(ring & sponge)) / ring_px;
+    if (share >= best_share) {
+      best_share = share;
+      best = o.instance_id;
+    }
+  }
+  return best;
+}
+
+/// The narrowest horizontal extent of an object at rest, over 32 directions: wider than the
+/// stroke, no top-down two-finger grasp can close on it.
+double NarrowestWidthM(const sim::PlacedObject& placed) {
+  double narrowest = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 32; ++k) {
+    const double a = 3.14159265358979323846 * k / 32;
+    const Eigen::Vector3d dir(std::cos(a), std::sin(a), 0.0);
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const auto& v : placed.object->mesh_o.vertices) {
+      const double x = dir.dot(placed.world_from_object * Eigen::Vector3d(v[0], v[1], v[2]));
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    narrowest = std::min(narrowest, hi - lo);
+  }
+  return narrowest;
+}
+
+struct ClearingStats {
+  int bins = 0, objects = 0, too_wide = 0, picked = 0, attempts = 0, damaged = 0;
+  Mean deformation;
+  std::vector<double> cleared_fraction, damage_rate, detect_ms;  // per bin (ms per attempt)
+  json ToJson() const {
+    const std::size_t n = cleared_fraction.size();
+    std::vector<int> all(n);
+    for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
+    const auto interval = [&](const std::vector<double>& v) {
+      if (n == 0) return json();
+      const Interval ci = BootstrapInterval(
+          static_cast<int>(n), [&v](std::span<const int> k) { return SampleMean(v, k); },
+          kBootstrapResamples, kBootstrapSeed);
+      return json::array({Num(ci.low), Num(ci.high)});
+    };
+    std::vector<double> ms = detect_ms;
+    std::sort(ms.begin(), ms.end());
+    return {{"bins", bins},
+            {"objects", objects},
+            {"objects_wider_than_the_stroke", too_wide},
+            {"picked", picked},
+            {"attempts", attempts},
+            {"damaged", damaged},
+            {"cleared_fraction_of_clearable", Num(SampleMean(cleared_fraction, all))},
+            {"damage_rate", Num(picked > 0 ? static_cast<double>(damaged) / picked : NAN)},
+            {"mean_deformation_rate", Num(deformation.value())},
+            {"ci95",
+             {{"cleared_fraction_of_clearable", interval(cleared_fraction)},
+              {"damage_rate_per_bin", interval(damage_rate)}}},
+            {"detect_ms_median", ms.empty() ? json() : json(ms[ms.size() / 2])}};
+  }
+};
+
+/// Picks until the bin is empty, the planner finds nothing, or kMaxFailuresInARow picks fail
+/// in a row; the camera re-renders the bin after every pick (picked objects leave; the others
+/// stay where they lay).
+void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
+              const Planner& planner, const Models& models, int max_attempts,
+              ClearingStats* stats) {
+  sim::SimScene scene = generated.scene;
+  const core::Camera& camera = spec.render.camera;
+  const cv::Mat1b roi = BinRoi(spec, camera, kBinMarginPx);
+  int clearable = 0;
+  for (const auto& o : scene.objects) {
+    if (NarrowestWidthM(o) > sim::SimGripper{}.opening_stroke_m) {
+      ++stats->too_wide;
+    } else {
+      ++clearable;
+    }
+  }
+  ++stats->bins;
+  stats->objects += static_cast<int>(scene.objects.size());
+  int picked = 0, damaged = 0, failures = 0;
+  for (int attempt = 0; attempt < max_attempts && !scene.objects.empty() &&
+                        failures < kMaxFailuresInARow;
+       ++attempt) {
+    auto raycaster = sim::SceneRaycaster::Build(scene);
+    if (!raycaster.ok()) break;
+    sim::RenderOptions render = spec.render;
+    render.noise.seed = generated.scene_seed + static_cast<std::uint64_t>(attempt) * 7919u;
+    const sim::RenderedViews views = sim::Render(raycaster.value(), render);
+    const Plan plan = RunPlanner(planner, views.depth, camera, roi, {}, models);
+    stats->detect_ms.push_back(plan.detect_ms);
+    if (plan.grasps.empty()) break;  // nothing changes until something is picked
+    ++stats->attempts;
+    auto exec = sim::ExecuteGrasp(
+        scene, raycaster.value(),
+        sim::SimGraspFromCamera(plan.grasps.front(), render.world_from_camera), sim::SimGripper{});
+    if (!exec.ok() || !exec.value().succeeded()) {
+      ++failures;
+      continue;
+    }
+    failures = 0;
+    const sim::GraspExecution& e = exec.value();
+    ++picked;
+    damaged += e.damaged ? 1 : 0;
+    stats->deformation.Add(e.deformation_rate);
+    scene.Remove(e.instance_id);
+  }
+  stats->picked += picked;
+  stats->damaged += damaged;
+  stats->cleared_fraction.push_back(
+      clearable > 0 ? std::min(1.0, static_cast<double>(picked) / clearable) : std::nan(""));
+  stats->damage_rate.push_back(picked > 0 ? static_cast<double>(damaged) / picked : std::nan(""));
+}
+
+}  // namespace
+
+int RunEvaluateTasks(std::vector<std::string> argv) {
+  Args args{std::move(argv)};
+  std::string segmentation_path, stiffness_path, out_path, tasks_text = "clutter,brushes,obstacles",
+                                                           value;
+  long long clutter_scenes = 600, brush_scenes = 100, obstacle_scenes = 100, bins = 100,
+            max_attempts = 30, seed = 7, threads = 2;
+  if (!args.Take("--segmentation-model", &segmentation_path)) {
+    return Fail("--segmentation-model FILE is required");
+  }
+  args.Take("--stiffness-model", &stiffness_path);
+  args.Take("--out", &out_path);
+  args.Take("--tasks", &tasks_text);
+  const std::pair<const char*, long long*> counts[] = {
+      {"--clutter-scenes", &clutter_scenes}, {"--brush-scenes", &brush_scenes},
+      {"--obstacle-scenes", &obstacle_scenes}, {"--bins", &bins},
+      {"--max-attempts", &max_attempts},     {"--seed", &seed},
+      {"--threads", &threads}};
+  for (const auto& [name, target] : counts) {
+    if (args.Take(name, &value) && !ParseInt(value, 0, 1000000, target)) {
+      return Fail(std::string(name) + " must be a count");
+    }
+  }
+  if (threads < 1) return Fail("--threads must be >= 1");
+  if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front());
+  std::vector<Task> tasks;
+  for (std::size_t start = 0; start <= tasks_text.size();) {
+    const std::size_t comma = std::min(tasks_text.find(',', start), tasks_text.size());
+    const std::string name = tasks_text.substr(start, comma - start);
+    if (name == "clutter") {
+      tasks.push_back(Task::kClutter);
+    } else if (name == "brushes") {
+      tasks.push_back(Task::kBrushes);
+    } else if (name == "obstacles") {
+      tasks.push_back(Task::kObstacles);
+    } else {
+      return Fail("--tasks takes clutter, brushes and obstacles, comma-separated; got '" +
+                  name + "'");
+    }
+    start = comma + 1;
+  }
+
+  models::SetTorchThreads(static_cast<int>(threads));
+  cv::setNumThreads(static_cast<int>(threads));
+  auto segmentation = models::SegmentationModel::Load(segmentation_path);
+  if (!segmentation.ok()) return Fail(segmentation.error().message);
+  std::optional<models::StiffnessModel> stiffness;
+  if (!stiffness_path.empty()) {
+    auto loaded = models::StiffnessModel::Load(stiffness_path);
+    if (!loaded.ok()) return Fail(loaded.error().message);
+    stiffness.emplace(std::move(loaded).value());
+  }
+  const Models models{&segmentation.value(), stiffness ? &*stiffness : nullptr};
+  const std::vector<Planner> planners = Planners(stiffness.has_value());
+
+  json out = {{"segmentation_model", segmentation_path},
+              {"stiffness_model", stiffness_path.empty() ? json() : json(stiffness_path)},
+              {"seed", seed},
+              {"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}},
+              {"tasks", json::object()}};
+  for (const Task task : tasks) {
+    const sim::SceneSpec spec = TaskSpec(task);
+    const int wanted = static_cast<int>(task == Task::kClutter   ? clutter_scenes
+                                        : task == Task::kBrushes ? brush_scenes
+                                                                 : obstacle_scenes);
+    const cv::Mat1b roi = BinRoi(spec, spec.render.camera, kBinMarginPx);
+    std::vector<Stats> stats(planners.size());
+    int used = 0, skipped = 0;
+    sim::ProgressBar bar(std::string(TaskName(task)) + " scenes", wanted);
+    for (int i = 0; used < wanted && i < 5 * wanted + 10; ++i) {
+      bar.Update(used);
+      const std::uint64_t scene_seed =
+          sim::SceneSeed(static_cast<std::uint64_t>(seed) + static_cast<int>(task) * 1000003u, i,
+                         sim::ShapeSplit::kVal);
+      auto generated = sim::GenerateScene(spec, scene_seed);
+      if (!generated.ok()) return Fail(generated.error().message);
+      const sim::GeneratedScene& g = generated.value();
+      int target_id = 0;
+      cv::Mat1b target_mask;
+      if (task == Task::kObstacles) {
+        target_id = PickTarget(g.scene, g.views.labels);
+        if (target_id == 0) {
+          ++skipped;  // no object packed among sponges in this draw
+          continue;
+        }
+        target_mask = g.views.labels == target_id;
+      }
+      auto raycaster = sim::SceneRaycaster::Build(g.scene);
+      if (!raycaster.ok()) return Fail(raycaster.error().message);
+      for (std::size_t p = 0; p < planners.size(); ++p) {
+        const Plan plan =
+            RunPlanner(planners[p], g.views.depth, spec.render.camera, roi, target_mask, models);
+        Record(task, g.scene, raycaster.value(), spec.render.world_from_camera, plan, target_id,
+               &stats[p]);
+      }
+      ++used;
+    }
+    bar.Update(wanted);
+    json task_json = {{"scenes", used},
+                      {"draws_without_a_target_among_sponges", skipped},
+                      {"spec", sim::SceneSpecToJson(spec)},
+                      {"planners", json::object()},
+                      {"versus_fge", json::object()}};
+    for (std::size_t p = 0; p < planners.size(); ++p) {
+      task_json["planners"][planners[p].name] = stats[p].ToJson();
+      if (p > 0) task_json["versus_fge"][planners[p].name] = Versus(stats[p], stats[0]);
+    }
+    if (task == Task::kClutter && bins > 0) {
+      std::vector<ClearingStats> clearing(planners.size());
+      sim::ProgressBar bin_bar("bin clearing", static_cast<int>(bins));
+      for (int b = 0; b < bins; ++b) {
+        bin_bar.Update(b);
+        auto generated = sim::GenerateScene(
+            spec, sim::SceneSeed(static_cast<std::uint64_t>(seed) + 77u, b, sim::ShapeSplit::kVal));
+        if (!generated.ok()) return Fail(generated.error().message);
+        for (std::size_t p = 0; p < planners.size(); ++p) {
+          ClearBin(generated.value(), spec, planners[p], models, static_cast<int>(max_attempts),
+                   &clearing[p]);
+        }
+      }
+      bin_bar.Update(static_cast<int>(bins));
+      json bin_json = json::object();
+      for (std::size_t p = 0; p < planners.size(); ++p) {
+        bin_json[planners[p].name] = clearing[p].ToJson();
+      }
+      task_json["bin_clearing"] = bin_json;
+    }
+    out["tasks"][TaskName(task)] = task_json;
+  }
+  const std::string text = out.dump(2);
+  std::cout << text << std::endl;
+  if (!out_path.empty()) {
+    std::ofstream file(out_path);
+    file << text << "\n";
+    if (!file) return Fail("cannot write " + out_path);
+  }
+  return 0;
+}
+
+}  // namespace softgrasp::tools
