@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -15,6 +16,9 @@ namespace {
 
 // The top of an instance: this quantile of its heights (a few flying pixels do not set it).
 constexpr double kTopQuantile = 0.98;
+// A grasp whose contact surface lies on the target's soft part for more than this fraction is
+// dropped (the part is never contact; a few pixels of a noisy map are tolerated).
+constexpr double kMaxSoftContactFraction = 0.5;
 
 void Require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("DeformabilityParams: " + what);
@@ -71,10 +75,10 @@ cv::Mat1f StiffnessOf(const cv::Mat1f& deformability) {
   return stiffness;
 }
 
-/// Target pixels the fingers may touch: in the mask, in scene.contact_allowed, and at least
-/// stiff_part_fraction of the target's maximum stiffness.
-cv::Mat1b ContactPart(const Scene& scene, const cv::Mat1b& target, const cv::Mat1f& stiffness,
-                      double stiff_part_fraction) {
+/// The target's stiff part: pixels in the mask and in scene.contact_allowed at least
+/// stiff_part_fraction of the target's maximum stiffness there.
+cv::Mat1b StiffPart(const Scene& scene, const cv::Mat1b& target, const cv::Mat1f& stiffness,
+                    double stiff_part_fraction) {
   cv::Mat1b allowed = target.clone();
   if (!scene.contact_allowed.empty()) allowed &= scene.contact_allowed;
   double max_stiffness = 0;
@@ -95,21 +99,59 @@ double Quantile(std::vector<float> values, double q) {
   return values[k];
 }
 
-/// The scene seen by the planner for one target: contact only on the target's stiff part; soft
-/// neighbours lowered by the press depth (a finger may push that far into them).
-Scene TargetScene(const Scene& scene, const ObjectMaps& objects, int target_id,
-                  const cv::Mat1f& stiffness, const DeformabilityParams& params) {
-  Scene out = scene;
+/// What the planner sees for one target: contact on the target only; the ranking map with the
+/// target's soft part at -1 (thesis §5.3.3: a closing region over it ranks far below one
+/// without, yet its geometry still counts, as contact surface and for slip); soft neighbours
+/// lowered by the press depth (a finger may push that far into them).
+struct TargetView {
+  Scene scene;
+  cv::Mat1f ranking;
+  cv::Mat1b soft_part;  ///< target pixels below stiff_part_fraction of its maximum
+};
+
+TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
+                         const cv::Mat1f& stiffness, const DeformabilityParams& params) {
+  TargetView out{scene, stiffness.clone(), {}};
   const cv::Mat1b target = objects.labels == target_id;
-  out.contact_allowed = ContactPart(scene, target, stiffness, params.stiff_part_fraction);
+  cv::Mat1b contact = target.clone();
+  if (!scene.contact_allowed.empty()) contact &= scene.contact_allowed;
+  out.scene.contact_allowed = contact;
+  const cv::Mat1b stiff = StiffPart(scene, target, stiffness, params.stiff_part_fraction);
+  out.soft_part = contact & ~stiff;
+  out.ranking.setTo(-1.0f, out.soft_part);
   const cv::Mat1b soft = (objects.labels != 0) & ~target &
                          (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
   if (params.max_press_depth_m > 0 && cv::countNonZero(soft) > 0) {
-    out.height_m = scene.height_m.clone();
+    out.scene.height_m = scene.height_m.clone();
     cv::Mat1f pressed = cv::max(scene.height_m - static_cast<float>(params.max_press_depth_m), 0.0f);
-    pressed.copyTo(out.height_m, soft);
+    pressed.copyTo(out.scene.height_m, soft);
   }
   return out;
+}
+
+/// The fraction of a grasp's contact surface (above its contact height inside the closing
+/// region, pixel-centre rule) that lies in `mask`; 0 without contact.
+double ContactFractionIn(const Scene& scene, const cv::Mat1b& mask, const Grasp& g) {
+  const double half_a = g.opening_px / 2;
+  const double half_b = g.finger_width_px / 2;
+  const int reach = static_cast<int>(std::ceil(std::hypot(half_a, half_b))) + 1;
+  const double cs = std::cos(g.angle_rad);
+  const double sn = std::sin(g.angle_rad);
+  const int u0 = static_cast<int>(std::lround(g.center_u_px));
+  const int v0 = static_cast<int>(std::lround(g.center_v_px));
+  int contact = 0, in_mask = 0;
+  for (int dv = -reach; dv <= reach; ++dv) {
+    for (int du = -reach; du <= reach; ++du) {
+      if (std::abs(du * cs + dv * sn) > half_a || std::abs(-du * sn + dv * cs) > half_b) continue;
+      const int u = u0 + du;
+      const int v = v0 + dv;
+      if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows) continue;
+      if (!(scene.height_m(v, u) > g.contact_height_m)) continue;
+      ++contact;
+      if (mask(v, u) != 0) ++in_mask;
+    }
+  }
+  return contact > 0 ? static_cast<double>(in_mask) / contact : 0.0;
 }
 
 /// Soft neighbours under the finger footprints above the fingertips (pixel-centre rule).
@@ -151,10 +193,13 @@ const char* TargetPolicyName(TargetPolicy policy) {
   return policy == TargetPolicy::kHighest ? "highest" : "least_deformable";
 }
 
-std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
-                              const DeformabilityParams& params) {
+namespace {
+
+/// The candidate targets with their statistics, in policy order (OrderTargets).
+std::vector<TargetStats> RankTargets(const Scene& scene, const ObjectMaps& objects,
+                                     const DeformabilityParams& params) {
   CheckMaps(scene, objects);
-  if (params.target_id > 0) return {params.target_id};
+  if (params.target_id > 0) return {TargetStats{params.target_id, 0, 0}};
   const cv::Mat1f stiffness = StiffnessOf(objects.deformability);
   std::map<int, std::vector<float>> heights;
   for (int v = 0; v < objects.labels.rows; ++v) {
@@ -172,7 +217,7 @@ std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
     s.id = id;
     s.top_m = Quantile(h, kTopQuantile);
     const cv::Mat1b part =
-        ContactPart(scene, objects.labels == id, stiffness, params.stiff_part_fraction);
+        StiffPart(scene, objects.labels == id, stiffness, params.stiff_part_fraction);
     s.mean_deformability = 1.0 - cv::mean(stiffness, part)[0];
     stats.push_back(s);
   }
@@ -199,8 +244,15 @@ std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
       return higher(a, b);
     });
   }
+  return stats;
+}
+
+}  // namespace
+
+std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
+                              const DeformabilityParams& params) {
   std::vector<int> ids;
-  for (const auto& s : stats) ids.push_back(s.id);
+  for (const auto& s : RankTargets(scene, objects, params)) ids.push_back(s.id);
   return ids;
 }
 
@@ -210,7 +262,7 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   CheckParams(params, gripper);
   DeformabilityResult result;
   if (scene.height_m.empty()) return result;
-  const std::vector<int> order = OrderTargets(scene, objects, params);
+  const std::vector<TargetStats> order = RankTargets(scene, objects, params);
   const cv::Mat1f stiffness = StiffnessOf(objects.deformability);
 
   StiffnessFgeParams sp;
@@ -222,22 +274,42 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   sp.centre_weight = params.centre_weight;
   sp.key_step = params.deformability_step;
   sp.max_slice_batches = 1;
+  sp.map_floor = -1.0;
 
-  for (int id : order) {
+  // least_deformable looks past the first reachable target while a later one, whose touchable
+  // part is less deformable by more than the tie tolerance, could give a gentler grasp.
+  const bool compare = params.policy == TargetPolicy::kLeastDeformable && params.target_id == 0;
+  double best_deformability = std::numeric_limits<double>::infinity();
+  for (const TargetStats& candidate : order) {
     if (static_cast<int>(result.tried_ids.size()) >= params.max_targets) break;
+    if (result.target_id > 0 &&
+        (!compare ||
+         candidate.mean_deformability >= best_deformability - params.tie_tolerance)) {
+      break;
+    }
+    const int id = candidate.id;
     result.tried_ids.push_back(id);
-    const Scene target_scene = TargetScene(scene, objects, id, stiffness, params);
-    if (cv::countNonZero(target_scene.contact_allowed) == 0) continue;
+    const TargetView view = ViewForTarget(scene, objects, id, stiffness, params);
+    if (cv::countNonZero(view.scene.contact_allowed) == 0) continue;
     for (std::size_t k = 0; k < params.opening_fractions.size(); ++k) {
       const double fraction = params.opening_fractions[k];
       Gripper opened = gripper;
       opened.opening_stroke_mm = gripper.opening_stroke_mm * fraction;
-      auto grasps = DetectGraspsStiffness(target_scene, camera, stiffness, opened, sp);
+      auto grasps = DetectGraspsStiffness(view.scene, camera, view.ranking, opened, sp);
       if (k + 1 < params.opening_fractions.size()) {
         std::erase_if(grasps, [&](const Grasp& g) { return g.score < params.min_graspability; });
       }
+      std::erase_if(grasps, [&](const Grasp& g) {
+        return ContactFractionIn(scene, view.soft_part, g) > kMaxSoftContactFraction;
+      });
       if (grasps.empty()) continue;
+      // The map's own mean under the fingers (the ranking's -1 marks are no stiffness).
+      for (Grasp& g : grasps) g.mean_stiffness = ContactMeanStiffness(scene, stiffness, g);
+      const double found = 1.0 - grasps.front().mean_stiffness;
+      if (result.target_id > 0 && !(found < best_deformability - params.tie_tolerance)) break;
+      best_deformability = found;
       result.target_id = id;
+      result.grasps.clear();
       for (const Grasp& g : grasps) {
         DeformabilityGrasp dg;
         dg.grasp = g;
@@ -247,7 +319,7 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
         FillPressed(scene, objects.labels, id, &dg);
         result.grasps.push_back(std::move(dg));
       }
-      return result;
+      break;
     }
   }
   return result;

@@ -50,7 +50,9 @@ struct DeformabilityParams {
   /// takes what it finds, as classic FGE does.
   double min_graspability = 0.05;
   /// Partially deformable objects: target pixels whose stiffness (1 - deformability) is below
-  /// this fraction of the target's maximum are never contact (they stay obstacles).
+  /// this fraction of the target's maximum are never contact: they rank as -1 (thesis §5.3.3)
+  /// and a grasp whose contact surface lies on them (beyond 5 %, a noisy map's few pixels) is
+  /// dropped. Their geometry still counts (a closing region over them is no slip).
   double stiff_part_fraction = 0.5;
   /// Neighbour pixels softer than this (deformability) are not collisions up to
   /// max_press_depth_m: a finger may press them aside. > 1 disables pushing.
@@ -76,8 +78,8 @@ struct DeformabilityGrasp {
 };
 
 struct DeformabilityResult {
-  int target_id = 0;          ///< 0 when no target gave a grasp
-  std::vector<int> tried_ids;  ///< targets planned, in order (the last gave the grasps)
+  int target_id = 0;          ///< whose grasps these are; 0 when no target gave a grasp
+  std::vector<int> tried_ids;  ///< targets planned, in order
   std::vector<DeformabilityGrasp> grasps;  ///< best first, all on target_id
 };
 
@@ -87,7 +89,10 @@ struct DeformabilityResult {
 std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
                               const DeformabilityParams& params);
 
-/// Plans on the targets of OrderTargets (at most max_targets) until one gives grasps.
+/// Plans on the targets of OrderTargets (at most max_targets) until one gives grasps. With
+/// kLeastDeformable (and no target_id) it goes on while a later target's touchable part is less
+/// deformable, by more than tie_tolerance, than the best grasp found so far (the first target's
+/// stiff part may be out of reach), and keeps the target whose best grasp is least deformable.
 /// Throws std::invalid_argument on maps of another size, scores not matching the labels' ids,
 /// or parameters out of range (and as DetectGraspsFge does).
 DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& camera,

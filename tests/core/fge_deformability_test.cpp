@@ -255,6 +255,32 @@ TEST(DetectGraspsDeformability, TargetPolicies) {
             1);
 }
 
+TEST(DetectGraspsDeformability, LeastDeformableLooksPastATargetWhoseStiffPartIsOutOfReach) {
+  // Instance 1: a rigid slab too wide to grasp (box 1, 90 x 90 mm) joined to a 30 mm arm of
+  // deformability 0.45 (box 2): its touchable part is mostly rigid, but the only grasp is on the
+  // arm. Instance 2 (box 3, 30 mm, deformability 0.3, lower) gives a gentler grasp.
+  SceneSpec spec;
+  spec.boxes = {Box{-0.06, 0.0, 0.090, 0.090, 0.050, 0.0, 1},
+                Box{0.005, 0.0, 0.040, 0.030, 0.050, 0.0, 2},
+                Box{0.08, 0.0, 0.030, 0.070, 0.040, 0.0, 3}};
+  const Prepared s = Make(spec, {{1, 1}, {2, 1}, {3, 2}}, {{1, 0.0f}, {2, 0.45f}, {3, 0.3f}},
+                          {0.9f, 0.9f});
+  DeformabilityParams params;
+  params.policy = TargetPolicy::kLeastDeformable;
+  EXPECT_EQ(OrderTargets(s.scene, s.objects, params), (std::vector<int>{1, 2}));
+  const auto result =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(result.tried_ids, (std::vector<int>{1, 2}));
+  ASSERT_EQ(result.target_id, 2);
+  EXPECT_NEAR(result.grasps.front().mean_deformability, 0.3, 0.02);
+  // The thesis' policy takes the first reachable target (the highest) as it is.
+  params.policy = TargetPolicy::kHighest;
+  const auto highest =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(highest.target_id, 1);
+  EXPECT_EQ(highest.tried_ids, (std::vector<int>{1}));
+}
+
 TEST(DetectGraspsDeformability, UnconfidentInstancesAreNeverTargets) {
   const Prepared s =
       Make(TallSoftLowHard(), {{1, 1}, {2, 2}}, {{1, 0.1f}, {2, 0.1f}}, {0.1f, 0.9f});

@@ -40,11 +40,9 @@ constexpr float kHardPart = 0.5f;
 /// around it, at least kMinSpongeRing of the ring.
 constexpr int kRingPx = 10;
 constexpr double kMinSpongeRing = 0.25;
-/// A model instance is the named target when its IoU with the target's true mask reaches this.
-constexpr double kMinTargetIou = 0.5;
 /// Bin clearing stops after this many failed picks in a row.
 constexpr int kMaxFailuresInARow = 3;
-/// The workspace ROI's margin inside the bin walls, pixels (as `evaluate`).
+/// The workspace ROI's margin inside the bin walls, pixels.
 constexpr int kBinMarginPx = 3;
 
 int Fail(const std::string& message) {
@@ -116,6 +114,20 @@ std::vector<Planner> Planners(bool stiffness_model) {
 struct Models {
   const models::SegmentationModel* segmentation = nullptr;
   const models::StiffnessModel* stiffness = nullptr;
+  core::DeformabilityParams deformability;  ///< the policy and target are set per planner
+};
+
+/// One gripper for planning (millimetres) and execution (metres), made from the same numbers.
+struct Grippers {
+  core::Gripper plan;
+  sim::SimGripper execute;
+  explicit Grippers(double stroke_mm) {
+    plan.opening_stroke_mm = stroke_mm;
+    execute.opening_stroke_m = plan.opening_stroke_mm * 1e-3;
+    execute.finger_width_m = plan.finger_width_mm * 1e-3;
+    execute.finger_thickness_m = plan.finger_thickness_mm * 1e-3;
+    execute.finger_length_m = plan.finger_length_mm * 1e-3;
+  }
 };
 
 struct Plan {
@@ -124,40 +136,34 @@ struct Plan {
   bool target_found = true;   ///< a named target matched an instance (deformability)
 };
 
-/// The model instance that best matches `mask` (IoU >= kMinTargetIou), 0 = none.
-int MatchingInstance(const cv::Mat1w& labels, const cv::Mat1b& mask) {
-  double max_id = 0;
-  cv::minMaxLoc(labels, nullptr, &max_id);
-  int best = 0;
-  double best_iou = kMinTargetIou;
-  const int mask_px = cv::countNonZero(mask);
-  for (int id = 1; id <= static_cast<int>(max_id); ++id) {
-    const cv::Mat1b inst = labels == id;
-    const int inter = cv::countNonZero(inst & mask);
-    if (inter == 0) continue;
-    const double iou = static_cast<double>(inter) / (cv::countNonZero(inst) + mask_px - inter);
-    if (iou >= best_iou) {
-      best_iou = iou;
-      best = id;
-    }
-  }
-  return best;
+/// The model instance a user would click to name the target: the one under the innermost pixel
+/// of the target's visible mask (farthest from its outline); 0 = none there.
+int ClickedInstance(const cv::Mat1w& labels, const cv::Mat1b& mask) {
+  cv::Mat1f distance;
+  cv::Mat1b padded;
+  cv::copyMakeBorder(mask, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
+  cv::distanceTransform(padded, distance, cv::DIST_L2, 3);
+  cv::Point inside;
+  double farthest = 0;
+  cv::minMaxLoc(distance, nullptr, &farthest, nullptr, &inside);
+  if (!(farthest > 0)) return 0;
+  return labels(inside.y - 1, inside.x - 1);
 }
 
 /// One planner's whole detection on one frame, timed. `target_mask` (may be empty): the named
 /// target's true visible pixels; FGE and stiffness then grasp only there, deformability takes
-/// the model instance matching it.
+/// the model instance a user would click (ClickedInstance).
 Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Camera& camera,
-                const cv::Mat1b& roi, const cv::Mat1b& target_mask, const Models& models) {
+                const cv::Mat1b& roi, const cv::Mat1b& target_mask, const Models& models,
+                const core::Gripper& gripper) {
   const auto t0 = Clock::now();
   Plan out;
   auto pre = core::Preprocess(depth, camera);
   if (!pre.ok()) return out;
   const core::Scene scene = std::move(pre).value();
+  // Contacts inside the bin only; the walls stay obstacles (the fingers must clear them).
   core::Scene in_bin = scene;
-  in_bin.height_m = scene.height_m.clone();
-  in_bin.height_m.setTo(0.0f, roi == 0);
-  const core::Gripper gripper;
+  core::RestrictContact(in_bin, roi, 0.0);
   switch (p.kind) {
     case Planner::Kind::kFge:
       if (!target_mask.empty()) core::RestrictContact(in_bin, target_mask, 0.0);
@@ -171,10 +177,10 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
     }
     case Planner::Kind::kDeformability: {
       const models::SegmentationOutput seg = models.segmentation->SegmentScene(scene);
-      core::DeformabilityParams params;
+      core::DeformabilityParams params = models.deformability;
       params.policy = p.policy;
       if (!target_mask.empty()) {
-        params.target_id = MatchingInstance(seg.instances.labels, target_mask);
+        params.target_id = ClickedInstance(seg.instances.labels, target_mask);
         if (params.target_id == 0) {
           out.target_found = false;
           break;
@@ -215,6 +221,7 @@ struct Stats {
   std::map<std::string, CategoryStats> by_category;  // the object the fingers closed on
   Mean neighbour_deformation;
   std::vector<double> success, task, deformation, damage, detect_ms;
+  json per_grasp;  // with --per-grasp: one record per executed grasp
 
   json ToJson() const {
     const std::size_t n = success.size();
@@ -258,7 +265,8 @@ struct Stats {
                            {"max", ms.empty() ? json() : json(ms.back())}}},
             {"outcomes", outcomes},
             {"example_reason", example_reason},
-            {"by_category", cats}};
+            {"by_category", cats},
+            {"per_grasp", per_grasp}};
   }
 };
 
@@ -303,7 +311,7 @@ std::string CategoryOf(const sim::SimScene& scene, int id) {
 /// Executes a plan's best grasp and records it.
 void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
             const Eigen::Isometry3d& world_from_camera, const Plan& plan, int target_id,
-            Stats* s) {
+            bool per_grasp, const sim::SimGripper& gripper, Stats* s) {
   s->detect_ms.push_back(plan.detect_ms);
   s->success.push_back(0.0);
   s->task.push_back(0.0);
@@ -317,13 +325,24 @@ void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& ra
   ++s->attempts;
   auto exec = sim::ExecuteGrasp(scene, raycaster,
                                 sim::SimGraspFromCamera(plan.grasps.front(), world_from_camera),
-                                sim::SimGripper{});
+                                gripper);
   if (!exec.ok()) {
     ++s->outcomes["error"];
     return;
   }
   const sim::GraspExecution& e = exec.value();
   const char* outcome = sim::GraspOutcomeName(e.outcome);
+  if (per_grasp) {
+    const core::Grasp& g = plan.grasps.front();
+    s->per_grasp.push_back({{"scene", s->success.size() - 1},
+                            {"object", CategoryOf(scene, e.instance_id)},
+                            {"outcome", outcome},
+                            {"reason", e.reason},
+                            {"opening_m", g.opening_m},
+                            {"center_px", {g.center_u_px, g.center_v_px}},
+                            {"contact_height_m", g.contact_height_m},
+                            {"deformation_rate", e.deformation_rate}});
+  }
   ++s->outcomes[outcome];
   s->example_reason.emplace(outcome, e.reason);
   CategoryStats& cat = s->by_category[CategoryOf(scene, e.instance_id)];
@@ -436,14 +455,14 @@ struct ClearingStats {
 /// in a row; the camera re-renders the bin after every pick (picked objects leave; the others
 /// stay where they lay).
 void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
-              const Planner& planner, const Models& models, int max_attempts,
-              ClearingStats* stats) {
+              const Planner& planner, const Models& models, const Grippers& grippers,
+              int max_attempts, ClearingStats* stats) {
   sim::SimScene scene = generated.scene;
   const core::Camera& camera = spec.render.camera;
   const cv::Mat1b roi = BinRoi(spec, camera, kBinMarginPx);
   int clearable = 0;
   for (const auto& o : scene.objects) {
-    if (NarrowestWidthM(o) > sim::SimGripper{}.opening_stroke_m) {
+    if (NarrowestWidthM(o) > grippers.execute.opening_stroke_m) {
       ++stats->too_wide;
     } else {
       ++clearable;
@@ -460,13 +479,13 @@ void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
     sim::RenderOptions render = spec.render;
     render.noise.seed = generated.scene_seed + static_cast<std::uint64_t>(attempt) * 7919u;
     const sim::RenderedViews views = sim::Render(raycaster.value(), render);
-    const Plan plan = RunPlanner(planner, views.depth, camera, roi, {}, models);
+    const Plan plan = RunPlanner(planner, views.depth, camera, roi, {}, models, grippers.plan);
     stats->detect_ms.push_back(plan.detect_ms);
     if (plan.grasps.empty()) break;  // nothing changes until something is picked
     ++stats->attempts;
     auto exec = sim::ExecuteGrasp(
         scene, raycaster.value(),
-        sim::SimGraspFromCamera(plan.grasps.front(), render.world_from_camera), sim::SimGripper{});
+        sim::SimGraspFromCamera(plan.grasps.front(), render.world_from_camera), grippers.execute);
     if (!exec.ok() || !exec.value().succeeded()) {
       ++failures;
       continue;
@@ -492,24 +511,29 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
   std::string segmentation_path, stiffness_path, out_path, tasks_text = "clutter,brushes,obstacles",
                                                            value;
   long long clutter_scenes = 600, brush_scenes = 100, obstacle_scenes = 100, bins = 100,
-            max_attempts = 30, seed = 7, threads = 2;
+            max_attempts = 30, seed = 7, threads = 2, stroke_mm = 85;
   if (!args.Take("--segmentation-model", &segmentation_path)) {
     return Fail("--segmentation-model FILE is required");
   }
   args.Take("--stiffness-model", &stiffness_path);
   args.Take("--out", &out_path);
   args.Take("--tasks", &tasks_text);
+  std::string openings_text;
+  args.Take("--openings", &openings_text);
   const std::pair<const char*, long long*> counts[] = {
       {"--clutter-scenes", &clutter_scenes}, {"--brush-scenes", &brush_scenes},
       {"--obstacle-scenes", &obstacle_scenes}, {"--bins", &bins},
       {"--max-attempts", &max_attempts},     {"--seed", &seed},
-      {"--threads", &threads}};
+      {"--threads", &threads},               {"--stroke-mm", &stroke_mm}};
   for (const auto& [name, target] : counts) {
     if (args.Take(name, &value) && !ParseInt(value, 0, 1000000, target)) {
       return Fail(std::string(name) + " must be a count");
     }
   }
   if (threads < 1) return Fail("--threads must be >= 1");
+  if (stroke_mm < 10 || stroke_mm > 300) return Fail("--stroke-mm must be in 10..300");
+  const bool per_grasp = args.Flag("--per-grasp");
+  const Grippers grippers(static_cast<double>(stroke_mm));
   if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front());
   std::vector<Task> tasks;
   for (std::size_t start = 0; start <= tasks_text.size();) {
@@ -538,12 +562,32 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     if (!loaded.ok()) return Fail(loaded.error().message);
     stiffness.emplace(std::move(loaded).value());
   }
-  const Models models{&segmentation.value(), stiffness ? &*stiffness : nullptr};
+  Models models{&segmentation.value(), stiffness ? &*stiffness : nullptr, {}};
+  if (!openings_text.empty()) {
+    models.deformability.opening_fractions.clear();
+    for (std::size_t start = 0; start <= openings_text.size();) {
+      const std::size_t comma = std::min(openings_text.find(',', start), openings_text.size());
+      double f = 0;
+      if (!ParseDouble(openings_text.substr(start, comma - start), &f) || !(f > 0 && f <= 1)) {
+        return Fail("--openings takes fractions of the stroke in (0, 1], comma-separated");
+      }
+      models.deformability.opening_fractions.push_back(f);
+      start = comma + 1;
+    }
+  }
   const std::vector<Planner> planners = Planners(stiffness.has_value());
 
   json out = {{"segmentation_model", segmentation_path},
               {"stiffness_model", stiffness_path.empty() ? json() : json(stiffness_path)},
               {"seed", seed},
+              {"opening_fractions", models.deformability.opening_fractions},
+              {"gripper",
+               {{"opening_stroke_mm", grippers.plan.opening_stroke_mm},
+                {"finger_width_mm", grippers.plan.finger_width_mm},
+                {"finger_thickness_mm", grippers.plan.finger_thickness_mm},
+                {"finger_length_mm", grippers.plan.finger_length_mm},
+                {"closing_force_n", grippers.execute.closing_force_n},
+                {"max_press_force_n", grippers.execute.max_press_force_n}}},
               {"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}},
               {"tasks", json::object()}};
   for (const Task task : tasks) {
@@ -576,10 +620,10 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
       auto raycaster = sim::SceneRaycaster::Build(g.scene);
       if (!raycaster.ok()) return Fail(raycaster.error().message);
       for (std::size_t p = 0; p < planners.size(); ++p) {
-        const Plan plan =
-            RunPlanner(planners[p], g.views.depth, spec.render.camera, roi, target_mask, models);
+        const Plan plan = RunPlanner(planners[p], g.views.depth, spec.render.camera, roi,
+                                     target_mask, models, grippers.plan);
         Record(task, g.scene, raycaster.value(), spec.render.world_from_camera, plan, target_id,
-               &stats[p]);
+               per_grasp, grippers.execute, &stats[p]);
       }
       ++used;
     }
@@ -602,8 +646,8 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
             spec, sim::SceneSeed(static_cast<std::uint64_t>(seed) + 77u, b, sim::ShapeSplit::kVal));
         if (!generated.ok()) return Fail(generated.error().message);
         for (std::size_t p = 0; p < planners.size(); ++p) {
-          ClearBin(generated.value(), spec, planners[p], models, static_cast<int>(max_attempts),
-                   &clearing[p]);
+          ClearBin(generated.value(), spec, planners[p], models, grippers,
+                   static_cast<int>(max_attempts), &clearing[p]);
         }
       }
       bin_bar.Update(static_cast<int>(bins));

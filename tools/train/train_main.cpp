@@ -50,7 +50,9 @@ constexpr const char* kUsage =
     "       softgrasp-train evaluate-tasks --segmentation-model MODEL [--stiffness-model MODEL]\n"
     "                                [--tasks clutter,brushes,obstacles] [--clutter-scenes N]\n"
     "                                [--brush-scenes N] [--obstacle-scenes N] [--bins N]\n"
-    "                                [--max-attempts N] [--seed S] [--threads T] [--out FILE]\n"
+    "                                [--max-attempts N] [--stroke-mm MM] [--openings F,F,..]\n"
+    "                                [--per-grasp]\n"
+    "                                [--seed S] [--threads T] [--out FILE]\n"
     "  The thesis' three tasks in the simulator (docs/deformability.md): fge, stiffness and\n"
     "  deformability (both target policies) on the same scenes; JSON with 95 % intervals.\n";
 
