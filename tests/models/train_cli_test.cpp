@@ -69,6 +69,9 @@ class TrainCliTest : public ::testing::Test {
   static std::string Shipped() {
     return (fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "pix2stiffness.pt").string();
   }
+  static std::string ShippedSegmentation() {
+    return (fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "segmentation.pt").string();
+  }
 
   static fs::path* root_;
 };
@@ -204,6 +207,48 @@ TEST_F(TrainCliTest, EvaluateRebuildsTheScenesAndBeatsTheConstantMap) {
   EXPECT_FALSE(out["object_pixels_by_category"].empty());
 }
 
+// evaluate-tasks end to end on a few scenes (the full run is docs/deformability.md's command):
+// every task, every planner on the same scenes, the paired comparisons and bin clearing.
+TEST_F(TrainCliTest, EvaluateTasksRunsEveryTaskAndPlannerOnTheSameScenes) {
+  if (!fs::exists(ShippedSegmentation())) GTEST_SKIP() << "no shipped segmentation model";
+  const fs::path out = *root_ / "tasks.json";
+  const CliRun r = Train("evaluate-tasks --segmentation-model " + ShippedSegmentation() +
+                         " --stiffness-model " + Shipped() +
+                         " --clutter-scenes 2 --brush-scenes 1 --obstacle-scenes 1 --bins 1"
+                         " --max-attempts 2 --per-grasp --threads 1 --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  EXPECT_EQ(json::parse(Slurp(out)), j);
+  EXPECT_EQ(j["gripper"]["opening_stroke_mm"], 85.0);
+  const std::vector<std::string> planners = {"fge", "stiffness", "deformability_highest",
+                                             "deformability_least_deformable"};
+  for (const auto& [task, scenes] :
+       std::vector<std::pair<std::string, int>>{{"clutter", 2}, {"brushes", 1}, {"obstacles", 1}}) {
+    SCOPED_TRACE(task);
+    const json& t = j["tasks"][task];
+    EXPECT_EQ(t["scenes"], scenes);
+    for (const std::string& p : planners) {
+      const json& s = t["planners"][p];
+      EXPECT_EQ(s["scenes"], scenes) << p;
+      EXPECT_EQ(s["attempts"].get<int>() + s["no_grasp"].get<int>(), scenes) << p;
+      const double rate = s["success_rate"];
+      EXPECT_GE(rate, 0.0);
+      EXPECT_LE(rate, 1.0);
+      EXPECT_LE(s["task_success_rate"].get<double>(), rate + 1e-12) << p;
+      EXPECT_EQ(s["per_grasp"].size(), static_cast<std::size_t>(s["attempts"].get<int>())) << p;
+      if (p != "fge") {
+        EXPECT_TRUE(t["versus_fge"][p].contains("deformation_ratio")) << p;
+      }
+    }
+  }
+  const json& bins = j["tasks"]["clutter"]["bin_clearing"];
+  for (const std::string& p : planners) {
+    EXPECT_EQ(bins[p]["bins"], 1) << p;
+    EXPECT_LE(bins[p]["picked"].get<int>(), bins[p]["attempts"].get<int>()) << p;
+    EXPECT_LE(bins[p]["attempts"].get<int>(), 2) << p;
+  }
+}
+
 TEST_F(TrainCliTest, BadCommandLinesExitTwoAndSayWhy) {
   struct Case {
     std::string args;
@@ -240,6 +285,13 @@ TEST_F(TrainCliTest, BadCommandLinesExitTwoAndSayWhy) {
                 " --constant 0.1",
             "none.pt"},
            {evaluate + " --constant 0.1 --compare " + (*root_ / "other.pt").string(), "other.pt"},
+           {"evaluate-tasks", "--segmentation-model FILE is required"},
+           {"evaluate-tasks --segmentation-model " + (*root_ / "none.pt").string(), "none.pt"},
+           {"evaluate-tasks --segmentation-model m --tasks clutter,juggling", "'juggling'"},
+           {"evaluate-tasks --segmentation-model m --openings 0.5,2", "--openings takes"},
+           {"evaluate-tasks --segmentation-model m --stroke-mm 5", "--stroke-mm must be"},
+           {"evaluate-tasks --segmentation-model m --bins many", "--bins must be a count"},
+           {"evaluate-tasks --segmentation-model m --what", "unknown argument --what"},
        }) {
     SCOPED_TRACE(c.args);
     const CliRun r = Train(c.args);

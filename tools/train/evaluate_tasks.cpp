@@ -552,6 +552,23 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     start = comma + 1;
   }
 
+  core::DeformabilityParams deformability;
+  if (!openings_text.empty()) {
+    deformability.opening_fractions.clear();
+    for (std::size_t start = 0; start <= openings_text.size();) {
+      const std::size_t comma = std::min(openings_text.find(',', start), openings_text.size());
+      double f = 0;
+      if (!ParseDouble(openings_text.substr(start, comma - start), &f) || !(f > 0 && f <= 1) ||
+          (!deformability.opening_fractions.empty() &&
+           !(f > deformability.opening_fractions.back()))) {
+        return Fail("--openings takes increasing fractions of the stroke in (0, 1], "
+                    "comma-separated");
+      }
+      deformability.opening_fractions.push_back(f);
+      start = comma + 1;
+    }
+  }
+
   models::SetTorchThreads(static_cast<int>(threads));
   cv::setNumThreads(static_cast<int>(threads));
   auto segmentation = models::SegmentationModel::Load(segmentation_path);
@@ -562,19 +579,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     if (!loaded.ok()) return Fail(loaded.error().message);
     stiffness.emplace(std::move(loaded).value());
   }
-  Models models{&segmentation.value(), stiffness ? &*stiffness : nullptr, {}};
-  if (!openings_text.empty()) {
-    models.deformability.opening_fractions.clear();
-    for (std::size_t start = 0; start <= openings_text.size();) {
-      const std::size_t comma = std::min(openings_text.find(',', start), openings_text.size());
-      double f = 0;
-      if (!ParseDouble(openings_text.substr(start, comma - start), &f) || !(f > 0 && f <= 1)) {
-        return Fail("--openings takes fractions of the stroke in (0, 1], comma-separated");
-      }
-      models.deformability.opening_fractions.push_back(f);
-      start = comma + 1;
-    }
-  }
+  const Models models{&segmentation.value(), stiffness ? &*stiffness : nullptr, deformability};
   const std::vector<Planner> planners = Planners(stiffness.has_value());
 
   json out = {{"segmentation_model", segmentation_path},
