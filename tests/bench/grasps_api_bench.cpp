@@ -2,7 +2,8 @@
 // a real 640x480 float32 NPY (Primesense frame). Baseline in the same run: GET /healthz over the
 // same path, so the ratio separates HTTP cost from grasp detection. With the shipped pix2stiffness
 // model: the stiffness strategy (the default then), classic FGE with mean stiffness, and the map
-// alone (POST /v1/stiffness).
+// alone (POST /v1/stiffness). With both shipped models (the server's default): the
+// deformability strategy (segmentation model + Algorithm 1 on one target), the default then.
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>
 
@@ -20,6 +21,12 @@ testing::RunningServer& Server() {
 
 testing::RunningServer& ServerWithModel() {
   static testing::RunningServer server({}, nullptr, nullptr, testing::ShippedStiffnessModel());
+  return server;
+}
+
+testing::RunningServer& ServerWithBothModels() {
+  static testing::RunningServer server({}, nullptr, nullptr, testing::ShippedStiffnessModel(),
+                                       testing::ShippedSegmentationModel());
   return server;
 }
 
@@ -82,6 +89,27 @@ void BM_PostGraspsFgeClutter(benchmark::State& state) {
       testing::RawRequest("POST", target, "application/x-npy", io::EncodeNpy(clutter.depth.depth_m)));
 }
 BENCHMARK(BM_PostGraspsFgeClutter)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Segmentation model + Algorithm 1 on the highest confident object (the default with both models).
+void BM_PostGraspsDeformabilityStrategy(benchmark::State& state) {
+  Run(state, ServerWithBothModels(), PrimesenseUpload("/v1/grasps"));
+}
+BENCHMARK(BM_PostGraspsDeformabilityStrategy)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_PostGraspsDeformabilityLeastDeformableClutter(benchmark::State& state) {
+  const ::softgrasp::testing::SyntheticScene clutter =
+      ::softgrasp::testing::RenderScene(::softgrasp::testing::ClutterSceneSpec());
+  const core::Camera& c = clutter.camera;
+  const std::string target =
+      "/v1/grasps?strategy=deformability&target_policy=least_deformable&fx=" +
+      std::to_string(c.fx) + "&fy=" + std::to_string(c.fy) + "&cx=" + std::to_string(c.cx) +
+      "&cy=" + std::to_string(c.cy);
+  Run(state, ServerWithBothModels(),
+      testing::RawRequest("POST", target, "application/x-npy", io::EncodeNpy(clutter.depth.depth_m)));
+}
+BENCHMARK(BM_PostGraspsDeformabilityLeastDeformableClutter)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // The map alone as an 8-bit PNG.
 void BM_PostStiffnessPng8(benchmark::State& state) {

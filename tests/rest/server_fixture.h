@@ -145,6 +145,17 @@ inline std::shared_ptr<const models::StiffnessModel> ShippedStiffnessModel() {
   return model;
 }
 
+/// The shipped segmentation model (models/segmentation.pt), loaded once per test program.
+inline std::shared_ptr<const models::SegmentationModel> ShippedSegmentationModel() {
+  static const std::shared_ptr<const models::SegmentationModel> model = [] {
+    auto loaded = models::SegmentationModel::Load(std::string(SOFTGRASP_SOURCE_DIR) +
+                                                  "/models/segmentation.pt");
+    if (!loaded.ok()) throw std::runtime_error(loaded.error().message);
+    return std::make_shared<const models::SegmentationModel>(std::move(loaded).value());
+  }();
+  return model;
+}
+
 /// A running server for one test.
 class RunningServer {
  public:
