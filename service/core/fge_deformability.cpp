@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -55,9 +56,11 @@ void CheckParams(const DeformabilityParams& p, const Gripper& gripper) {
 
 void CheckMaps(const Scene& scene, const ObjectMaps& objects) {
   const cv::Size size = scene.height_m.size();
-  if (objects.labels.size() != size || objects.deformability.size() != size) {
+  if (objects.labels.size() != size || objects.deformability.size() != size ||
+      (!objects.foreground.empty() && objects.foreground.size() != size)) {
     throw std::invalid_argument(
-        "DetectGraspsDeformability: labels and deformability must have the scene's size");
+        "DetectGraspsDeformability: labels, deformability and foreground must have the scene's "
+        "size");
   }
   double max_id = 0;
   if (!objects.labels.empty()) cv::minMaxLoc(objects.labels, nullptr, &max_id);
@@ -109,17 +112,39 @@ struct TargetView {
   cv::Mat1b soft_part;  ///< target pixels below stiff_part_fraction of its maximum
 };
 
+/// The target's mask grown into the unlabelled foreground connected to it.
+cv::Mat1b GrownTarget(const ObjectMaps& objects, int target_id) {
+  const cv::Mat1b target = objects.labels == target_id;
+  if (objects.foreground.empty()) return target;
+  const cv::Mat1b region = target | ((objects.labels == 0) & (objects.foreground >= 0.5f));
+  cv::Mat1i components;
+  const int n = cv::connectedComponents(region, components, 8, CV_32S);
+  std::vector<bool> keep(static_cast<std::size_t>(n), false);
+  for (int v = 0; v < target.rows; ++v) {
+    for (int u = 0; u < target.cols; ++u) {
+      if (target(v, u)) keep[static_cast<std::size_t>(components(v, u))] = true;
+    }
+  }
+  cv::Mat1b grown(target.size(), static_cast<unsigned char>(0));
+  for (int v = 0; v < target.rows; ++v) {
+    for (int u = 0; u < target.cols; ++u) {
+      if (region(v, u) && keep[static_cast<std::size_t>(components(v, u))]) grown(v, u) = 255;
+    }
+  }
+  return grown;
+}
+
 TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
                          const cv::Mat1f& stiffness, const DeformabilityParams& params) {
   TargetView out{scene, stiffness.clone(), {}};
-  const cv::Mat1b target = objects.labels == target_id;
+  const cv::Mat1b target = GrownTarget(objects, target_id);
   cv::Mat1b contact = target.clone();
   if (!scene.contact_allowed.empty()) contact &= scene.contact_allowed;
   out.scene.contact_allowed = contact;
   const cv::Mat1b stiff = StiffPart(scene, target, stiffness, params.stiff_part_fraction);
   out.soft_part = contact & ~stiff;
   out.ranking.setTo(-1.0f, out.soft_part);
-  const cv::Mat1b soft = (objects.labels != 0) & ~target &
+  const cv::Mat1b soft = (objects.labels != 0) & (objects.labels != target_id) &
                          (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
   if (params.max_press_depth_m > 0 && cv::countNonZero(soft) > 0) {
     out.scene.height_m = scene.height_m.clone();
@@ -321,6 +346,22 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
       }
       break;
     }
+  }
+  if (result.target_id == 0 && params.whole_scene_fallback && params.target_id == 0) {
+    StiffnessFgeParams whole;
+    whole.fge = params.fge;
+    whole.centre_weight = params.centre_weight;
+    whole.key_step = params.deformability_step;
+    for (const Grasp& g : DetectGraspsStiffness(scene, camera, stiffness, gripper, whole)) {
+      DeformabilityGrasp dg;
+      dg.grasp = g;
+      const int u = std::clamp(static_cast<int>(std::lround(g.center_u_px)), 0, scene.height_m.cols - 1);
+      const int v = std::clamp(static_cast<int>(std::lround(g.center_v_px)), 0, scene.height_m.rows - 1);
+      dg.instance_id = objects.labels(v, u);
+      dg.mean_deformability = 1.0 - g.mean_stiffness;
+      result.grasps.push_back(std::move(dg));
+    }
+    result.fallback = !result.grasps.empty();
   }
   return result;
 }

@@ -23,11 +23,15 @@ enum class TargetPolicy {
 const char* TargetPolicyName(TargetPolicy policy);  ///< "highest" | "least_deformable"
 
 /// What a segmenter says about a scene: labels (0 = none, ids 1..N), scores[id - 1] in [0, 1],
-/// and a deformability map in [0, 1] (0 rigid ... 1 very soft), all of the scene's size.
+/// a deformability map in [0, 1] (0 rigid ... 1 very soft), all of the scene's size, and
+/// optionally the foreground probability: unlabelled foreground pixels (>= 0.5) connected to the
+/// target count as the target (a mask that covers only part of its object must not make the
+/// rest of the object an obstacle).
 struct ObjectMaps {
   cv::Mat1w labels;
   std::vector<float> scores;
   cv::Mat1f deformability;
+  cv::Mat1f foreground;  ///< empty = no growing
 };
 
 struct DeformabilityParams {
@@ -61,6 +65,11 @@ struct DeformabilityParams {
   /// kLeastDeformable: instances whose mean deformability is within this of the least are ties.
   double tie_tolerance = 0.05;
   int max_targets = 8;  ///< candidate targets planned at most, in policy order
+  /// When no target gives a grasp (no confident instance, or their masks cover too little of
+  /// their objects, as on some real frames), plan on the whole scene instead: FGE's own
+  /// multi-height search (fge as given) ranked by the mean (1 - deformability), like the
+  /// stiffness strategy on the segmentation model's map. Never with target_id.
+  bool whole_scene_fallback = true;
   double centre_weight = 0.05;  ///< as StiffnessFgeParams::centre_weight
   /// The mean deformability ranks in steps of this size (StiffnessFgeParams::key_step): a
   /// learned map's small ripples do not pull the grasp off the object's centre.
@@ -70,7 +79,7 @@ struct DeformabilityParams {
 /// A grasp on the target with what the strategy knows about it.
 struct DeformabilityGrasp {
   Grasp grasp;  ///< mean_stiffness = 1 - mean_deformability
-  int instance_id = 0;
+  int instance_id = 0;  ///< the target (fallback: the instance under the centre, 0 = none)
   double mean_deformability = 0;  ///< over the contact surface in the closing region
   double opening_fraction = 1;    ///< of the stroke (grasp.opening_m is the opening itself)
   std::vector<int> pressed_ids;   ///< soft neighbours under the finger footprints, ascending
@@ -80,6 +89,7 @@ struct DeformabilityGrasp {
 struct DeformabilityResult {
   int target_id = 0;          ///< whose grasps these are; 0 when no target gave a grasp
   std::vector<int> tried_ids;  ///< targets planned, in order
+  bool fallback = false;       ///< the grasps come from the whole-scene fallback
   std::vector<DeformabilityGrasp> grasps;  ///< best first, all on target_id
 };
 

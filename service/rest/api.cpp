@@ -278,7 +278,8 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
     core::DeformabilityParams params = in.deformability;
     params.fge = in.fge;
     planned = core::DetectGraspsDeformability(
-        scene, up.camera, {instances->labels, instances->scores, instances->deformability},
+        scene, up.camera,
+        {instances->labels, instances->scores, instances->deformability, instances->foreground},
         in.gripper, params);
     for (const auto& dg : planned.grasps) grasps.push_back(dg.grasp);
   } else if (in.strategy == GraspStrategy::kStiffness) {
@@ -307,7 +308,9 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
       const core::DeformabilityGrasp& dg = planned.grasps[i];
       g["instance_id"] = dg.instance_id;
       g["deformability"] = {{"target_policy", core::TargetPolicyName(in.deformability.policy)},
-                            {"target_by", in.target_id > 0 ? "request" : "policy"},
+                            {"target_by", planned.fallback       ? "fallback"
+                                          : in.target_id > 0 ? "request"
+                                                             : "policy"},
                             {"slice", dg.grasp.height_step},
                             {"opening_fraction", dg.opening_fraction},
                             {"mean_deformability", OrNull(dg.mean_deformability)},
@@ -353,7 +356,8 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
   if (by_deformability) {
     body["target"] = {{"id", planned.target_id > 0 ? json(planned.target_id) : json()},
                       {"policy", core::TargetPolicyName(in.deformability.policy)},
-                      {"tried", planned.tried_ids}};
+                      {"tried", planned.tried_ids},
+                      {"fallback", planned.fallback}};
   }
   return http::Response::Json(200, body.dump());
 }

@@ -291,9 +291,21 @@ TEST(DetectGraspsDeformability, UnconfidentInstancesAreNeverTargets) {
   EXPECT_EQ(result.target_id, 2);
   params.min_score = 0.95;
   EXPECT_TRUE(OrderTargets(s.scene, s.objects, params).empty());
-  EXPECT_EQ(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params)
-                .target_id,
-            0);
+  // No target: the whole scene, ranked by the map (both boxes equally rigid here).
+  const auto fallback =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(fallback.target_id, 0);
+  EXPECT_TRUE(fallback.fallback);
+  ASSERT_FALSE(fallback.grasps.empty());
+  for (const auto& dg : fallback.grasps) {
+    EXPECT_EQ(dg.instance_id, BoxAtCenter(s, dg.grasp));
+    EXPECT_NEAR(dg.mean_deformability, 0.1, 1e-4);
+  }
+  params.whole_scene_fallback = false;
+  const auto none = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(none.target_id, 0);
+  EXPECT_FALSE(none.fallback);
+  EXPECT_TRUE(none.grasps.empty());
 }
 
 TEST(DetectGraspsDeformability, TheNextTargetIsTriedWhenTheFirstHasNoGrasp) {
@@ -307,8 +319,33 @@ TEST(DetectGraspsDeformability, TheNextTargetIsTriedWhenTheFirstHasNoGrasp) {
   EXPECT_EQ(result.target_id, 2);
   DeformabilityParams one;
   one.max_targets = 1;
+  one.whole_scene_fallback = false;
   EXPECT_EQ(
       DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, one).target_id, 0);
+}
+
+TEST(DetectGraspsDeformability, AMaskCoveringPartOfItsObjectGrowsIntoTheUnlabelledForeground) {
+  // The segmenter labelled only the left half of a 30 x 70 mm box (the rest is foreground
+  // without an instance). Without the foreground the unlabelled half is an obstacle and no
+  // grasp fits; with it the target is the whole box.
+  SceneSpec spec;
+  spec.boxes = {Box{0.0, 0.0, 0.030, 0.070, 0.040, 0.0, 1}};
+  Prepared s = Make(spec, {{1, 1}}, {{1, 0.1f}}, {0.9f});
+  const double u_mid = testing::ProjectTablePoint(spec, 0.0, 0.0, 0.04).x;
+  s.objects.foreground = cv::Mat1f(s.objects.labels.size(), 0.0f);
+  s.objects.foreground.setTo(1.0f, s.objects.labels == 1);
+  for (int v = 0; v < s.objects.labels.rows; ++v) {
+    for (int u = static_cast<int>(u_mid); u < s.objects.labels.cols; ++u) s.objects.labels(v, u) = 0;
+  }
+  DeformabilityParams params;
+  params.whole_scene_fallback = false;
+  ObjectMaps cut = s.objects;
+  cut.foreground = cv::Mat1f();
+  EXPECT_TRUE(DetectGraspsDeformability(s.scene, s.synth.camera, cut, Gripper{}, params).grasps.empty());
+  const auto grown = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(grown.target_id, 1);
+  ASSERT_FALSE(grown.grasps.empty());
+  EXPECT_EQ(BoxAtCenter(s, grown.grasps.front().grasp), 1);
 }
 
 TEST(DetectGraspsDeformability, BadInputThrows) {
@@ -316,6 +353,10 @@ TEST(DetectGraspsDeformability, BadInputThrows) {
       Make(TallSoftLowHard(), {{1, 1}, {2, 2}}, {{1, 0.1f}, {2, 0.1f}}, {0.9f, 0.9f});
   ObjectMaps wrong = s.objects;
   wrong.deformability = cv::Mat1f(10, 10, 0.f);
+  EXPECT_THROW(DetectGraspsDeformability(s.scene, s.synth.camera, wrong, Gripper{}),
+               std::invalid_argument);
+  wrong = s.objects;
+  wrong.foreground = cv::Mat1f(10, 10, 0.f);
   EXPECT_THROW(DetectGraspsDeformability(s.scene, s.synth.camera, wrong, Gripper{}),
                std::invalid_argument);
   wrong = s.objects;

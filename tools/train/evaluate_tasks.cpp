@@ -187,8 +187,9 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
         }
       }
       const auto planned = core::DetectGraspsDeformability(
-          in_bin, camera, {seg.instances.labels, seg.instances.scores, seg.deformability},
-          gripper, params);
+          in_bin, camera,
+          {seg.instances.labels, seg.instances.scores, seg.deformability, seg.foreground}, gripper,
+          params);
       for (const auto& dg : planned.grasps) out.grasps.push_back(dg.grasp);
       break;
     }
