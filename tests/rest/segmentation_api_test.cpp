@@ -603,5 +603,39 @@ TEST(SegmentationApiModelTest, DeformabilityStrategyGraspsOneTarget) {
   }
 }
 
+// The default strategy with the shipped models on every real frame in ../shared/data: always
+// grasps (on one target, or from the whole-scene fallback when no confident object gives one),
+// each with its deformability record; the whole request within the 250 ms budget is a benchmark
+// (grasps_api_bench), not asserted here.
+TEST(SegmentationApiModelTest, DeformabilityAnswersGraspsOnEveryRealFrame) {
+  if (!std::filesystem::exists(ModelPath())) {
+    GTEST_SKIP() << "no segmentation model at " << ModelPath();
+  }
+  RunningServer server({}, nullptr, nullptr, nullptr, testing::ShippedSegmentationModel());
+  for (const auto& [frame, intr] : std::vector<std::pair<std::string, std::string>>{
+           {"gqcnn/primesense/single_depth_0.npy", "gqcnn/primesense/primesense.intr"},
+           {"gqcnn/primesense/single_depth_1.npy", "gqcnn/primesense/primesense.intr"},
+           {"gqcnn/primesense/single_depth_2.npy", "gqcnn/primesense/primesense.intr"},
+           {"gqcnn/phoxi/clutter_depth_0.npy", "gqcnn/phoxi/phoxi.intr"}}) {
+    SCOPED_TRACE(frame);
+    const json body = ParseOk(server.Send(MultipartRequest(
+        "/v1/grasps", {{"depth", testing::ReadFileBytes(testing::SharedData(frame)), "d.npy"},
+                       {"intrinsics", testing::ReadFileBytes(testing::SharedData(intr)), "c.intr"}})));
+    EXPECT_EQ(body["strategy"], "deformability");
+    ASSERT_FALSE(body["grasps"].empty()) << body.dump();
+    const bool fallback = body["target"]["fallback"];
+    EXPECT_EQ(body["target"]["id"].is_null(), fallback);
+    for (const json& g : body["grasps"]) {
+      EXPECT_EQ(g["deformability"]["target_by"], fallback ? "fallback" : "policy");
+      if (!fallback) {
+        EXPECT_EQ(g["instance_id"], body["target"]["id"]);
+      }
+      const double d = g["deformability"]["mean_deformability"];
+      EXPECT_GE(d, 0.0);
+      EXPECT_LE(d, 1.0);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace softgrasp::rest
