@@ -102,10 +102,7 @@ double Quantile(std::vector<float> values, double q) {
   return values[k];
 }
 
-/// What the planner sees for one target: contact on the target only; the ranking map with the
-/// target's soft part at -1 (thesis §5.3.3: a closing region over it ranks far below one
-/// without, yet its geometry still counts, as contact surface and for slip); soft neighbours
-/// lowered by the press depth (a finger may push that far into them).
+/// What the planner sees for one target (ViewForTarget).
 struct TargetView {
   Scene scene;
   cv::Mat1f ranking;
@@ -134,6 +131,10 @@ cv::Mat1b GrownTarget(const ObjectMaps& objects, int target_id) {
   return grown;
 }
 
+/// Contact on the (grown) target only; the ranking map with the target's soft part at -1
+/// (thesis §5.3.3: a closing region over it ranks far below one without, yet its geometry still
+/// counts, as contact surface and for slip); soft neighbours lowered by the press depth (a
+/// finger may push that far into them).
 TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
                          const cv::Mat1f& stiffness, const DeformabilityParams& params) {
   TargetView out{scene, stiffness.clone(), {}};
@@ -154,60 +155,55 @@ TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int targ
   return out;
 }
 
-/// The fraction of a grasp's contact surface (above its contact height inside the closing
-/// region, pixel-centre rule) that lies in `mask`; 0 without contact.
-double ContactFractionIn(const Scene& scene, const cv::Mat1b& mask, const Grasp& g) {
-  const double half_a = g.opening_px / 2;
+/// Calls fn(u, v) for the image pixels (pixel-centre rule) around grasp g whose offset along the
+/// closing axis has a_min < |a| <= a_max and across it |b| <= the finger's half width: the
+/// closing region for a_min < 0, a_max = opening / 2; the finger footprints for a_min =
+/// opening / 2, a_max = opening / 2 + finger thickness.
+template <class Fn>
+void ForEachGraspPixel(const Grasp& g, cv::Size image, double a_min, double a_max, Fn&& fn) {
   const double half_b = g.finger_width_px / 2;
-  const int reach = static_cast<int>(std::ceil(std::hypot(half_a, half_b))) + 1;
+  const int reach = static_cast<int>(std::ceil(std::hypot(a_max, half_b))) + 1;
   const double cs = std::cos(g.angle_rad);
   const double sn = std::sin(g.angle_rad);
   const int u0 = static_cast<int>(std::lround(g.center_u_px));
   const int v0 = static_cast<int>(std::lround(g.center_v_px));
-  int contact = 0, in_mask = 0;
-  for (int dv = -reach; dv <= reach; ++dv) {
-    for (int du = -reach; du <= reach; ++du) {
-      if (std::abs(du * cs + dv * sn) > half_a || std::abs(-du * sn + dv * cs) > half_b) continue;
-      const int u = u0 + du;
-      const int v = v0 + dv;
-      if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows) continue;
-      if (!(scene.height_m(v, u) > g.contact_height_m)) continue;
-      ++contact;
-      if (mask(v, u) != 0) ++in_mask;
-    }
-  }
-  return contact > 0 ? static_cast<double>(in_mask) / contact : 0.0;
-}
-
-/// Soft neighbours under the finger footprints above the fingertips (pixel-centre rule).
-void FillPressed(const Scene& scene, const cv::Mat1w& labels, int target_id,
-                 DeformabilityGrasp* out) {
-  const Grasp& g = out->grasp;
-  const double inner = g.opening_px / 2;
-  const double outer = inner + g.finger_thickness_px;
-  const double half_w = g.finger_width_px / 2;
-  const int reach = static_cast<int>(std::ceil(std::hypot(outer, half_w))) + 1;
-  const double cs = std::cos(g.angle_rad);
-  const double sn = std::sin(g.angle_rad);
-  const int u0 = static_cast<int>(std::lround(g.center_u_px));
-  const int v0 = static_cast<int>(std::lround(g.center_v_px));
-  std::set<int> ids;
-  double depth = 0;
   for (int dv = -reach; dv <= reach; ++dv) {
     for (int du = -reach; du <= reach; ++du) {
       const double a = std::abs(du * cs + dv * sn);
-      const double b = std::abs(-du * sn + dv * cs);
-      if (a <= inner || a > outer || b > half_w) continue;
+      if (a <= a_min || a > a_max || std::abs(-du * sn + dv * cs) > half_b) continue;
       const int u = u0 + du;
       const int v = v0 + dv;
-      if (u < 0 || v < 0 || u >= labels.cols || v >= labels.rows) continue;
-      const int id = labels(v, u);
-      const double above = scene.height_m(v, u) - g.grasp_height_m;
-      if (id == 0 || id == target_id || !(above > 0)) continue;
-      ids.insert(id);
-      depth = std::max(depth, above);
+      if (u >= 0 && v >= 0 && u < image.width && v < image.height) fn(u, v);
     }
   }
+}
+
+/// The fraction of a grasp's contact surface (above its contact height inside the closing
+/// region) that lies in `mask`; 0 without contact.
+double ContactFractionIn(const Scene& scene, const cv::Mat1b& mask, const Grasp& g) {
+  int contact = 0, in_mask = 0;
+  ForEachGraspPixel(g, mask.size(), -1.0, g.opening_px / 2, [&](int u, int v) {
+    if (!(scene.height_m(v, u) > g.contact_height_m)) return;
+    ++contact;
+    if (mask(v, u) != 0) ++in_mask;
+  });
+  return contact > 0 ? static_cast<double>(in_mask) / contact : 0.0;
+}
+
+/// Soft neighbours under the finger footprints above the fingertips.
+void FillPressed(const Scene& scene, const cv::Mat1w& labels, int target_id,
+                 DeformabilityGrasp* out) {
+  const Grasp& g = out->grasp;
+  std::set<int> ids;
+  double depth = 0;
+  ForEachGraspPixel(g, labels.size(), g.opening_px / 2, g.opening_px / 2 + g.finger_thickness_px,
+                    [&](int u, int v) {
+                      const int id = labels(v, u);
+                      const double above = scene.height_m(v, u) - g.grasp_height_m;
+                      if (id == 0 || id == target_id || !(above > 0)) return;
+                      ids.insert(id);
+                      depth = std::max(depth, above);
+                    });
   out->pressed_ids.assign(ids.begin(), ids.end());
   out->press_depth_m = depth;
 }
