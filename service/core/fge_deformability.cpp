@@ -17,9 +17,6 @@ namespace {
 
 // The top of an instance: this quantile of its heights (a few flying pixels do not set it).
 constexpr double kTopQuantile = 0.98;
-// A grasp whose contact surface lies on the target's soft part for more than this fraction is
-// dropped (the part is never contact; a few pixels of a noisy map are tolerated).
-constexpr double kMaxSoftContactFraction = 0.5;
 
 void Require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("DeformabilityParams: " + what);
@@ -102,12 +99,6 @@ double Quantile(std::vector<float> values, double q) {
   return values[k];
 }
 
-/// What the planner sees for one target (ViewForTarget).
-struct TargetView {
-  Scene scene;
-  cv::Mat1f ranking;
-  cv::Mat1b soft_part;  ///< target pixels below stiff_part_fraction of its maximum
-};
 
 /// The target's mask grown into the unlabelled foreground connected to it.
 cv::Mat1b GrownTarget(const ObjectMaps& objects, int target_id) {
@@ -131,34 +122,27 @@ cv::Mat1b GrownTarget(const ObjectMaps& objects, int target_id) {
   return grown;
 }
 
-/// Contact on the (grown) target only; the ranking map with the target's soft part at -1
-/// (thesis §5.3.3: a closing region over it ranks far below one without, yet its geometry still
-/// counts, as contact surface and for slip); soft neighbours lowered by the press depth (a
-/// finger may push that far into them).
-TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
-                         const cv::Mat1f& stiffness, const DeformabilityParams& params) {
-  TargetView out{scene, stiffness.clone(), {}};
-  const cv::Mat1b target = GrownTarget(objects, target_id);
-  cv::Mat1b contact = target.clone();
-  if (!scene.contact_allowed.empty()) contact &= scene.contact_allowed;
-  out.scene.contact_allowed = contact;
-  const cv::Mat1b stiff = StiffPart(scene, target, stiffness, params.stiff_part_fraction);
-  out.soft_part = contact & ~stiff;
-  out.ranking.setTo(-1.0f, out.soft_part);
+/// The scene the planner sees for one target: contact only on the (grown) target's stiff part
+/// (thesis §5.3.3: the soft part is never contact and stays an obstacle); soft neighbours
+/// lowered by the press depth (a finger may push that far into them).
+Scene SceneForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
+                     const cv::Mat1f& stiffness, const DeformabilityParams& params) {
+  Scene out = scene;
+  out.contact_allowed =
+      StiffPart(scene, GrownTarget(objects, target_id), stiffness, params.stiff_part_fraction);
   const cv::Mat1b soft = (objects.labels != 0) & (objects.labels != target_id) &
                          (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
   if (params.max_press_depth_m > 0 && cv::countNonZero(soft) > 0) {
-    out.scene.height_m = scene.height_m.clone();
+    out.height_m = scene.height_m.clone();
     cv::Mat1f pressed = cv::max(scene.height_m - static_cast<float>(params.max_press_depth_m), 0.0f);
-    pressed.copyTo(out.scene.height_m, soft);
+    pressed.copyTo(out.height_m, soft);
   }
   return out;
 }
 
 /// Calls fn(u, v) for the image pixels (pixel-centre rule) around grasp g whose offset along the
-/// closing axis has a_min < |a| <= a_max and across it |b| <= the finger's half width: the
-/// closing region for a_min < 0, a_max = opening / 2; the finger footprints for a_min =
-/// opening / 2, a_max = opening / 2 + finger thickness.
+/// closing axis has a_min < |a| <= a_max and across it |b| <= the finger's half width (for the
+/// finger footprints: a_min = opening / 2, a_max = opening / 2 + finger thickness).
 template <class Fn>
 void ForEachGraspPixel(const Grasp& g, cv::Size image, double a_min, double a_max, Fn&& fn) {
   const double half_b = g.finger_width_px / 2;
@@ -176,18 +160,6 @@ void ForEachGraspPixel(const Grasp& g, cv::Size image, double a_min, double a_ma
       if (u >= 0 && v >= 0 && u < image.width && v < image.height) fn(u, v);
     }
   }
-}
-
-/// The fraction of a grasp's contact surface (above its contact height inside the closing
-/// region) that lies in `mask`; 0 without contact.
-double ContactFractionIn(const Scene& scene, const cv::Mat1b& mask, const Grasp& g) {
-  int contact = 0, in_mask = 0;
-  ForEachGraspPixel(g, mask.size(), -1.0, g.opening_px / 2, [&](int u, int v) {
-    if (!(scene.height_m(v, u) > g.contact_height_m)) return;
-    ++contact;
-    if (mask(v, u) != 0) ++in_mask;
-  });
-  return contact > 0 ? static_cast<double>(in_mask) / contact : 0.0;
 }
 
 /// Soft neighbours under the finger footprints above the fingertips.
@@ -295,7 +267,6 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   sp.centre_weight = params.centre_weight;
   sp.key_step = params.deformability_step;
   sp.max_slice_batches = 1;
-  sp.map_floor = -1.0;
 
   // least_deformable looks past the first reachable target while a later one, whose touchable
   // part is less deformable by more than the tie tolerance, could give a gentler grasp.
@@ -310,22 +281,17 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
     }
     const int id = candidate.id;
     result.tried_ids.push_back(id);
-    const TargetView view = ViewForTarget(scene, objects, id, stiffness, params);
-    if (cv::countNonZero(view.scene.contact_allowed) == 0) continue;
+    const Scene target_scene = SceneForTarget(scene, objects, id, stiffness, params);
+    if (cv::countNonZero(target_scene.contact_allowed) == 0) continue;
     for (std::size_t k = 0; k < params.opening_fractions.size(); ++k) {
       const double fraction = params.opening_fractions[k];
       Gripper opened = gripper;
       opened.opening_stroke_mm = gripper.opening_stroke_mm * fraction;
-      auto grasps = DetectGraspsStiffness(view.scene, camera, view.ranking, opened, sp);
+      auto grasps = DetectGraspsStiffness(target_scene, camera, stiffness, opened, sp);
       if (k + 1 < params.opening_fractions.size()) {
         std::erase_if(grasps, [&](const Grasp& g) { return g.score < params.min_graspability; });
       }
-      std::erase_if(grasps, [&](const Grasp& g) {
-        return ContactFractionIn(scene, view.soft_part, g) > kMaxSoftContactFraction;
-      });
       if (grasps.empty()) continue;
-      // The map's own mean under the fingers (the ranking's -1 marks are no stiffness).
-      for (Grasp& g : grasps) g.mean_stiffness = ContactMeanStiffness(scene, stiffness, g);
       const double found = 1.0 - grasps.front().mean_stiffness;
       if (result.target_id > 0 && !(found < best_deformability - params.tie_tolerance)) break;
       best_deformability = found;

@@ -54,9 +54,8 @@ struct DeformabilityParams {
   /// takes what it finds, as classic FGE does.
   double min_graspability = 0.05;
   /// Partially deformable objects: target pixels whose stiffness (1 - deformability) is below
-  /// this fraction of the target's maximum are never contact: they rank as -1 (thesis §5.3.3)
-  /// and a grasp whose contact surface lies on them (beyond 5 %, a noisy map's few pixels) is
-  /// dropped. Their geometry still counts (a closing region over them is no slip).
+  /// this fraction of the target's maximum are never contact (thesis §5.3.3); they stay
+  /// obstacles, so a closing region that would squeeze them fails FGE's slip rule.
   double stiff_part_fraction = 0.5;
   /// Neighbour pixels softer than this (deformability) are not collisions up to
   /// max_press_depth_m: a finger may press them aside. > 1 disables pushing.

@@ -175,11 +175,10 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
   fge_detail::CheckInputs(camera, gripper, fp);
   if (!(params.centre_weight >= 0) || params.candidate_step_px < 1 ||
       params.candidate_step_px > 16 || params.max_slice_batches < 0 ||
-      !(params.key_step >= 0 && params.key_step <= 1) ||
-      !(params.map_floor >= -1 && params.map_floor <= 0)) {
+      !(params.key_step >= 0 && params.key_step <= 1)) {
     throw std::invalid_argument(
         "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16, "
-        "max_slice_batches >= 0, key_step in [0, 1], map_floor in [-1, 0]");
+        "max_slice_batches >= 0, key_step in [0, 1]");
   }
   if (scene.height_m.empty()) return {};
   if (stiffness_map.size() != scene.height_m.size()) {
@@ -192,8 +191,8 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
                                fge_detail::PxPerMetre(scene.floor, camera, 0), gripper, fp);
   // NaN / out-of-range map values count as the softest score (never preferred).
   cv::Mat1f stiffness = stiffness_map.clone();
-  cv::patchNaNs(stiffness, params.map_floor);
-  cv::min(cv::max(stiffness, static_cast<float>(params.map_floor)), 1.0f, stiffness);
+  cv::patchNaNs(stiffness, 0.0);
+  cv::min(cv::max(stiffness, 0.0f), 1.0f, stiffness);
 
   std::vector<SliceData> slices;
   std::vector<Candidate> all;

@@ -25,10 +25,6 @@ struct StiffnessFgeParams {
   /// Candidate pixels are evaluated on a grid of this step (image pixels), rounded down to the
   /// fast FGE's work resolution (a multiple of its scale, at least one work pixel).
   int candidate_step_px = 2;
-  /// Map values are clamped to [map_floor, 1] (NaN counts as map_floor). 0 for stiffness maps;
-  /// the deformability planner marks never-wanted contact with -1 (thesis §5.3.3), so a closing
-  /// region over it ranks far below one without.
-  double map_floor = 0.0;
   /// Batches of fge.num_height_steps slices searched at most (0 = down to the floor while fewer
   /// than top_k grasps are found). Algorithm 1 of the deformability planner searches one.
   int max_slice_batches = 0;
@@ -39,7 +35,7 @@ struct StiffnessFgeParams {
 /// graspability. `stiffness_map`: the scene's size, values in [0, 1] (e.g.
 /// models::StiffnessModel::Predict). Throws std::invalid_argument like DetectGraspsFge, and when
 /// the map's size differs from the scene's or params are out of range (centre_weight >= 0,
-/// 1 <= candidate_step_px <= 16, max_slice_batches >= 0, key_step in [0, 1], map_floor in [-1, 0]).
+/// 1 <= candidate_step_px <= 16, max_slice_batches >= 0, key_step in [0, 1]).
 std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
                                          const cv::Mat1f& stiffness_map, const Gripper& gripper,
                                          const StiffnessFgeParams& params = {});
