@@ -325,7 +325,8 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
   camera["source"] = up.camera_source;
   json timing = {{"decode", decode_ms}, {"preprocess", preprocess_ms}};
   if (need_stiffness) timing["stiffness"] = stiffness_ms;
-  if (instances && std::string(instances->source) != "labels") {
+  // The segmenter's time: it ran to segment, or (labels given) for the deformability map.
+  if (instances && instances->milliseconds > 0) {
     timing["segmentation"] = instances->milliseconds;
   }
   timing["detect"] = detect_ms;
