@@ -10,11 +10,13 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -471,14 +473,21 @@ std::string ModelPath() {
   return std::string(SOFTGRASP_SOURCE_DIR) + "/models/segmentation.pt";
 }
 
+// The model at ModelPath(), loaded once; null when there is no file (the tests then skip).
+std::shared_ptr<const models::SegmentationModel> Model() {
+  static const std::shared_ptr<const models::SegmentationModel> model =
+      []() -> std::shared_ptr<const models::SegmentationModel> {
+    if (!std::filesystem::exists(ModelPath())) return nullptr;
+    auto loaded = models::SegmentationModel::Load(ModelPath());
+    if (!loaded.ok()) throw std::runtime_error(loaded.error().message);
+    return std::make_shared<const models::SegmentationModel>(std::move(loaded).value());
+  }();
+  return model;
+}
+
 TEST(SegmentationApiModelTest, ModelAnswersWithDeformability) {
-  if (!std::filesystem::exists(ModelPath())) {
-    GTEST_SKIP() << "no segmentation model at " << ModelPath();
-  }
-  auto loaded = models::SegmentationModel::Load(ModelPath());
-  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
-  auto model = std::make_shared<const models::SegmentationModel>(std::move(loaded).value());
-  RunningServer server({}, nullptr, nullptr, nullptr, model);
+  if (!Model()) GTEST_SKIP() << "no segmentation model at " << ModelPath();
+  RunningServer server({}, nullptr, nullptr, nullptr, Model());
   const Frame& f = Boxes();
   const json info = json::parse(server.Send(RawRequest("GET", "/v1/info")).body);
   EXPECT_EQ(info["default_segmentation_method"], "model");
@@ -519,13 +528,8 @@ TEST(SegmentationApiModelTest, ModelAnswersWithDeformability) {
 // and says so; labels given by the client are used as they are (every id confident); bad
 // fields name themselves.
 TEST(SegmentationApiModelTest, DeformabilityStrategyGraspsOneTarget) {
-  if (!std::filesystem::exists(ModelPath())) {
-    GTEST_SKIP() << "no segmentation model at " << ModelPath();
-  }
-  auto loaded = models::SegmentationModel::Load(ModelPath());
-  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
-  auto model = std::make_shared<const models::SegmentationModel>(std::move(loaded).value());
-  RunningServer server({}, nullptr, nullptr, nullptr, model);
+  if (!Model()) GTEST_SKIP() << "no segmentation model at " << ModelPath();
+  RunningServer server({}, nullptr, nullptr, nullptr, Model());
   const Frame& f = Boxes();
   const json info = json::parse(server.Send(RawRequest("GET", "/v1/info")).body);
   EXPECT_EQ(info["default_strategy"], "deformability");
@@ -608,10 +612,8 @@ TEST(SegmentationApiModelTest, DeformabilityStrategyGraspsOneTarget) {
 // each with its deformability record; the whole request within the 250 ms budget is a benchmark
 // (grasps_api_bench), not asserted here.
 TEST(SegmentationApiModelTest, DeformabilityAnswersGraspsOnEveryRealFrame) {
-  if (!std::filesystem::exists(ModelPath())) {
-    GTEST_SKIP() << "no segmentation model at " << ModelPath();
-  }
-  RunningServer server({}, nullptr, nullptr, nullptr, testing::ShippedSegmentationModel());
+  if (!Model()) GTEST_SKIP() << "no segmentation model at " << ModelPath();
+  RunningServer server({}, nullptr, nullptr, nullptr, Model());
   for (const auto& [frame, intr] : std::vector<std::pair<std::string, std::string>>{
            {"gqcnn/primesense/single_depth_0.npy", "gqcnn/primesense/primesense.intr"},
            {"gqcnn/primesense/single_depth_1.npy", "gqcnn/primesense/primesense.intr"},
