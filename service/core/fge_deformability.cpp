@@ -188,12 +188,12 @@ const char* TargetPolicyName(TargetPolicy policy) {
 
 namespace {
 
-/// The candidate targets with their statistics, in policy order (OrderTargets).
+/// The candidate targets with their statistics, in policy order (OrderTargets). `stiffness`:
+/// StiffnessOf(objects.deformability).
 std::vector<TargetStats> RankTargets(const Scene& scene, const ObjectMaps& objects,
+                                     const cv::Mat1f& stiffness,
                                      const DeformabilityParams& params) {
-  CheckMaps(scene, objects);
   if (params.target_id > 0) return {TargetStats{params.target_id, 0, 0}};
-  const cv::Mat1f stiffness = StiffnessOf(objects.deformability);
   std::map<int, std::vector<float>> heights;
   for (int v = 0; v < objects.labels.rows; ++v) {
     for (int u = 0; u < objects.labels.cols; ++u) {
@@ -244,8 +244,11 @@ std::vector<TargetStats> RankTargets(const Scene& scene, const ObjectMaps& objec
 
 std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
                               const DeformabilityParams& params) {
+  CheckMaps(scene, objects);
   std::vector<int> ids;
-  for (const auto& s : RankTargets(scene, objects, params)) ids.push_back(s.id);
+  for (const auto& s : RankTargets(scene, objects, StiffnessOf(objects.deformability), params)) {
+    ids.push_back(s.id);
+  }
   return ids;
 }
 
@@ -255,8 +258,9 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   CheckParams(params, gripper);
   DeformabilityResult result;
   if (scene.height_m.empty()) return result;
-  const std::vector<TargetStats> order = RankTargets(scene, objects, params);
+  CheckMaps(scene, objects);
   const cv::Mat1f stiffness = StiffnessOf(objects.deformability);
+  const std::vector<TargetStats> order = RankTargets(scene, objects, stiffness, params);
 
   StiffnessFgeParams sp;
   sp.fge = params.fge;

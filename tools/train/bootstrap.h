@@ -29,6 +29,19 @@ using SceneStatistic = std::function<double(std::span<const int> sample)>;
 Interval BootstrapInterval(int units, const SceneStatistic& statistic, int resamples,
                            std::uint64_t seed, double level = 0.95);
 
+/// A running mean of the finite values added (NaN and infinities are skipped); NaN while empty.
+struct Mean {
+  double sum = 0;
+  int n = 0;
+  void Add(double v) {
+    if (std::isfinite(v)) {
+      sum += v;
+      ++n;
+    }
+  }
+  double value() const { return n > 0 ? sum / n : std::nan(""); }
+};
+
 /// The mean of the finite `per_scene` values at the sampled indices (an index drawn twice counts
 /// twice); NaN when there is none. A NaN value marks a scene without that figure (no grasp, or no
 /// contact to measure deformation on).

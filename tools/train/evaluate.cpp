@@ -53,18 +53,6 @@ bool ParseCount(const std::string& s, int* out) {
   return true;
 }
 
-/// Running mean.
-struct Mean {
-  double sum = 0;
-  int n = 0;
-  void Add(double v) {
-    if (std::isfinite(v)) {
-      sum += v;
-      ++n;
-    }
-  }
-  double value() const { return n > 0 ? sum / n : std::nan(""); }
-};
 
 /// A whole-string finite decimal number ("", "1x", "inf" and "nan" are not).
 bool ParseNumber(const std::string& text, double* out) {

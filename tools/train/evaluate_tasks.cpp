@@ -198,14 +198,22 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
   return out;
 }
 
-struct Mean {
-  double sum = 0;
-  int n = 0;
-  void Add(double v) {
-    if (std::isfinite(v)) sum += v, ++n;
-  }
-  double value() const { return n > 0 ? sum / n : std::nan(""); }
-};
+/// The 95 % interval of the mean of `per_scene` (NaN = no figure) over a scene bootstrap.
+json MeanInterval(const std::vector<double>& per_scene) {
+  if (per_scene.empty()) return json();
+  const Interval ci = BootstrapInterval(
+      static_cast<int>(per_scene.size()),
+      [&per_scene](std::span<const int> k) { return SampleMean(per_scene, k); },
+      kBootstrapResamples, kBootstrapSeed);
+  return json::array({Num(ci.low), Num(ci.high)});
+}
+
+/// 0, 1, ..., n - 1: every scene once.
+std::vector<int> AllScenes(std::size_t n) {
+  std::vector<int> all(n);
+  for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
+  return all;
+}
 
 struct CategoryStats {
   int grasps = 0, succeeded = 0, damaged = 0;
@@ -226,17 +234,7 @@ struct Stats {
 
   json ToJson() const {
     const std::size_t n = success.size();
-    const auto mean_of = [](const std::vector<double>& v) {
-      return [&v](std::span<const int> k) { return SampleMean(v, k); };
-    };
-    const auto interval = [&](const std::vector<double>& v) {
-      if (n == 0) return json();
-      const Interval ci = BootstrapInterval(static_cast<int>(n), mean_of(v), kBootstrapResamples,
-                                            kBootstrapSeed);
-      return json::array({Num(ci.low), Num(ci.high)});
-    };
-    std::vector<int> all(n);
-    for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
+    const std::vector<int> all = AllScenes(n);
     std::vector<double> ms = detect_ms;
     std::sort(ms.begin(), ms.end());
     json cats = json::object();
@@ -255,10 +253,10 @@ struct Stats {
             {"mean_deformation_rate", Num(SampleMean(deformation, all))},
             {"damage_rate", Num(SampleMean(damage, all))},
             {"ci95",
-             {{"success_rate", interval(success)},
-              {"task_success_rate", interval(task)},
-              {"mean_deformation_rate", interval(deformation)},
-              {"damage_rate", interval(damage)}}},
+             {{"success_rate", MeanInterval(success)},
+              {"task_success_rate", MeanInterval(task)},
+              {"mean_deformation_rate", MeanInterval(deformation)},
+              {"damage_rate", MeanInterval(damage)}}},
             {"grasps_pressing_neighbours", pressed},
             {"mean_neighbour_deformation_rate", Num(neighbour_deformation.value())},
             {"detect_ms", {{"median", ms.empty() ? json() : json(ms[ms.size() / 2])},
@@ -292,8 +290,7 @@ json Versus(const Stats& s, const Stats& base) {
       {"task_success_difference", [&](std::span<const int> k) {
          return SampleMean(s.task, k) - SampleMean(base.task, k);
        }}};
-  std::vector<int> all(n);
-  for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
+  const std::vector<int> all = AllScenes(n);
   json out = json::object();
   for (const auto& [name, statistic] : statistics) {
     const Interval ci = BootstrapInterval(static_cast<int>(n), statistic, kBootstrapResamples,
@@ -424,16 +421,7 @@ struct ClearingStats {
   Mean deformation;
   std::vector<double> cleared_fraction, damage_rate, detect_ms;  // per bin (ms per attempt)
   json ToJson() const {
-    const std::size_t n = cleared_fraction.size();
-    std::vector<int> all(n);
-    for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
-    const auto interval = [&](const std::vector<double>& v) {
-      if (n == 0) return json();
-      const Interval ci = BootstrapInterval(
-          static_cast<int>(n), [&v](std::span<const int> k) { return SampleMean(v, k); },
-          kBootstrapResamples, kBootstrapSeed);
-      return json::array({Num(ci.low), Num(ci.high)});
-    };
+    const std::vector<int> all = AllScenes(cleared_fraction.size());
     std::vector<double> ms = detect_ms;
     std::sort(ms.begin(), ms.end());
     return {{"bins", bins},
@@ -446,8 +434,8 @@ struct ClearingStats {
             {"damage_rate", Num(picked > 0 ? static_cast<double>(damaged) / picked : NAN)},
             {"mean_deformation_rate", Num(deformation.value())},
             {"ci95",
-             {{"cleared_fraction_of_clearable", interval(cleared_fraction)},
-              {"damage_rate_per_bin", interval(damage_rate)}}},
+             {{"cleared_fraction_of_clearable", MeanInterval(cleared_fraction)},
+              {"damage_rate_per_bin", MeanInterval(damage_rate)}}},
             {"detect_ms_median", ms.empty() ? json() : json(ms[ms.size() / 2])}};
   }
 };
