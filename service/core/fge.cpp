@@ -107,7 +107,7 @@ Grasp MakeGrasp(const Candidate& c, const Slice& slice, const Scene& scene, cons
   grasp.center_v_px = c.v_px;
   grasp.angle_rad = AngleOf(c.angle_index, params.num_angles);
   grasp.opening_px = g.opening_px;
-  grasp.opening_m = gripper.opening_stroke_mm * 1e-3;
+  grasp.opening_m = gripper.opening_stroke_m;
   grasp.finger_width_px = g.finger_width_px;
   grasp.finger_thickness_px = g.finger_thickness_px;
   grasp.contact_height_m = slice.contact_height_m;

@@ -25,7 +25,7 @@ void Require(bool ok, const std::string& what) {
 void CheckParams(const DeformabilityParams& p, const Gripper& gripper) {
   Require(p.min_target_area_px >= 0 && std::isfinite(p.min_target_area_px),
           "min_target_area_px (K) must be >= 0");
-  Require(p.slice_step_m > 0 && p.slice_step_m <= gripper.finger_length_mm * 1e-3,
+  Require(p.slice_step_m > 0 && p.slice_step_m <= gripper.finger_length_m,
           "slice_step_m (L) must be > 0 and not exceed the finger length");
   Require(p.num_slices >= 1 && p.num_slices <= 40, "num_slices (M) must be in 1..40");
   Require(p.min_score >= 0 && p.min_score <= 1, "min_score (R) must be in [0, 1]");
@@ -290,7 +290,7 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
     for (std::size_t k = 0; k < params.opening_fractions.size(); ++k) {
       const double fraction = params.opening_fractions[k];
       Gripper opened = gripper;
-      opened.opening_stroke_mm = gripper.opening_stroke_mm * fraction;
+      opened.opening_stroke_m = gripper.opening_stroke_m * fraction;
       auto grasps = DetectGraspsStiffness(target_scene, camera, stiffness, opened, sp);
       if (k + 1 < params.opening_fractions.size()) {
         std::erase_if(grasps, [&](const Grasp& g) { return g.score < params.min_graspability; });

@@ -14,7 +14,6 @@
 namespace softgrasp::core::fge_detail {
 namespace {
 
-constexpr double kMmToM = 1e-3;
 constexpr double kRoundingSlackPx = 1e-9;  // 21.9999999 px counts as 22 px
 constexpr double kHistogramBinM = 0.001;
 constexpr double kHistogramTopM = 2.0;
@@ -235,15 +234,15 @@ void CheckInputs(const Camera& camera, const Gripper& gripper, const FgeParams& 
   Require(std::isfinite(camera.fx) && camera.fx > 0 && std::isfinite(camera.fy) && camera.fy > 0 &&
               std::isfinite(camera.cx) && std::isfinite(camera.cy),
           "camera intrinsics must be finite with fx, fy > 0");
-  Require(gripper.opening_stroke_mm > 0 && gripper.finger_width_mm > 0 &&
-              gripper.finger_thickness_mm > 0 && gripper.finger_length_mm > 0,
+  Require(gripper.opening_stroke_m > 0 && gripper.finger_width_m > 0 &&
+              gripper.finger_thickness_m > 0 && gripper.finger_length_m > 0,
           "gripper sizes must be > 0");
   Require(params.num_angles >= 1, "num_angles must be >= 1");
   Require(params.num_height_steps >= 1 && params.num_height_steps <= kMaxHeightSteps,
           "num_height_steps must be in [1, " + std::to_string(kMaxHeightSteps) + "]");
   Require(params.height_step_m > 0, "height_step_m must be > 0");
   Require(params.grip_depth_m >= 0, "grip_depth_m must be >= 0");
-  Require(params.grip_depth_m <= gripper.finger_length_mm * kMmToM,
+  Require(params.grip_depth_m <= gripper.finger_length_m,
           "grip_depth_m must not exceed the finger length");
   Require(params.min_object_area_px >= 0, "min_object_area_px must be >= 0");
   Require(std::isfinite(params.floor_clearance_m), "floor_clearance_m must be finite");
@@ -264,9 +263,8 @@ double PxPerMetre(const Plane& floor, const Camera& camera, double height_m) {
 }
 
 GripperPx GripperAtScale(const Gripper& gripper, double px_per_m) {
-  return {gripper.opening_stroke_mm * kMmToM * px_per_m,
-          gripper.finger_width_mm * kMmToM * px_per_m,
-          gripper.finger_thickness_mm * kMmToM * px_per_m};
+  return {gripper.opening_stroke_m * px_per_m, gripper.finger_width_m * px_per_m,
+          gripper.finger_thickness_m * px_per_m};
 }
 
 TemplateBoxes RasteriseTemplates(const GripperPx& g) {
@@ -291,7 +289,7 @@ int GaussianKernelSize(double sigma_px) {
 
 Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& params, int index) {
   const double tip_height_m = contact_height_m - params.grip_depth_m;
-  return {index, contact_height_m, tip_height_m, tip_height_m + gripper.finger_length_mm * kMmToM};
+  return {index, contact_height_m, tip_height_m, tip_height_m + gripper.finger_length_m};
 }
 
 SliceSearch SearchSlices(const cv::Mat1f& height_m, const cv::Mat1b& contact_allowed,

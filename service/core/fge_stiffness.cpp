@@ -106,7 +106,7 @@ Grasp MakeGrasp(const Candidate& c, const SliceData& sd, const Scene& scene, con
   grasp.center_v_px = c.v_px;
   grasp.angle_rad = AngleOf(c.angle_index, params.num_angles);
   grasp.opening_px = sd.gripper.opening_px;
-  grasp.opening_m = gripper.opening_stroke_mm * 1e-3;
+  grasp.opening_m = gripper.opening_stroke_m;
   grasp.finger_width_px = sd.gripper.finger_width_px;
   grasp.finger_thickness_px = sd.gripper.finger_thickness_px;
   grasp.contact_height_m = sd.slice.contact_height_m;

@@ -2,19 +2,33 @@
 /// Two-finger gripper geometry and the 4-DoF grasps the planners return.
 
 #include <array>
+#include <cmath>
 #include <limits>
 #include <vector>
 
 namespace softgrasp::core {
 
-/// A parallel two-finger gripper seen from above (approach along the camera's +z).
-/// Sizes in millimetres, as gripper data sheets give them.
+/// A parallel two-finger gripper, the one description the planners (its geometry, seen from
+/// above, approach along the camera's +z) and the simulator (geometry and forces) share. SI
+/// units: metres and newtons. Data sheets give sizes in millimetres: convert once where they are
+/// read (the REST fields and the configuration file say `_mm`).
 struct Gripper {
-  double opening_stroke_mm = 50.0;   ///< largest distance between the inner finger faces
-  double finger_width_mm = 15.0;     ///< finger size across the closing axis
-  double finger_thickness_mm = 8.0;  ///< finger size along the closing axis
-  double finger_length_mm = 40.0;    ///< how far the fingers reach below the palm
+  double opening_stroke_m = 0.05;     ///< largest distance between the inner finger faces
+  double finger_width_m = 0.015;      ///< finger size across the closing axis
+  double finger_thickness_m = 0.008;  ///< finger size along the closing axis
+  double finger_length_m = 0.04;      ///< how far the fingers reach below the palm
+  double closing_force_n = 10.0;      ///< force each finger pushes with once in contact
+  double friction_coefficient = 0.5;  ///< finger pad / object Coulomb friction
+  /// Largest downward force a descending finger may push a neighbour with (the arm stops above
+  /// it): a neighbour that yields to the fingertip height under this force is pressed aside
+  /// (docs/sim-grasp-execution.md); 0 = every contact on the way down collides.
+  double max_press_force_n = 20.0;
 };
+
+/// Millimetres (data sheets, the REST fields) to metres, and back rounded to a nanometre so a
+/// size given in millimetres reads back exactly as given.
+inline double MetresFromMm(double mm) { return mm * 1e-3; }
+inline double MmFromMetres(double m) { return std::round(m * 1e9) / 1e6; }
 
 /// One grasp. Pixel quantities are in the input image; the pose is in the camera frame C
 /// (OpenCV convention). Heights are measured above the fitted floor plane.

@@ -6,10 +6,10 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "service/core/fge.h"
 #include "service/core/fge_deformability.h"
-#include "service/core/fge_stiffness.h"
 #include "service/core/preprocess.h"
+#include "service/engine/engine.h"
+#include "service/engine/instances.h"
 #include "service/http/static_files.h"
 #include "service/io/depth_codec.h"
 #include "service/io/overlay.h"
@@ -17,14 +17,13 @@
 #include "service/rest/depth_request.h"
 #include "service/rest/fractal_request.h"
 #include "service/rest/robot_api.h"
-#include "service/rest/segmentation_request.h"
 
 namespace softgrasp::rest {
 namespace {
 
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
-using StiffnessModelPtr = std::shared_ptr<const models::StiffnessModel>;
+using engine::Models;
 
 // Optional numbers: null when absent.
 json OrNull(const std::optional<double>& value) {
@@ -35,16 +34,17 @@ double MillisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-// `instances`: the segmentation the request used, or null (instance fields are then null).
-json GraspToJson(const core::Grasp& g, int rank, const GraspInstances* instances) {
-  json instance_id;
-  json instance_deformability;
-  if (instances != nullptr) {
-    const int id = InstanceAt(instances->labels, g.center_u_px, g.center_v_px);
-    instance_id = id;
-    if (id > 0 && static_cast<std::size_t>(id) < instances->mean_deformability.size()) {
-      instance_deformability = OrNull(instances->mean_deformability[static_cast<std::size_t>(id)]);
-    }
+json GraspToJson(const engine::PlannedGrasp& planned, int rank) {
+  const core::Grasp& g = planned.grasp;
+  json deformability;
+  if (const auto& d = planned.deformability) {
+    deformability = {{"target_policy", core::TargetPolicyName(d->policy)},
+                     {"target_by", d->target_by},
+                     {"slice", g.height_step},
+                     {"opening_fraction", d->opening_fraction},
+                     {"mean_deformability", OrNull(d->mean_deformability)},
+                     {"pressed_instances", d->pressed_ids},
+                     {"press_depth_m", d->press_depth_m}};
   }
   return {
       {"rank", rank},
@@ -61,14 +61,15 @@ json GraspToJson(const core::Grasp& g, int rank, const GraspInstances* instances
       // Mean of the stiffness map over the contact surface in the closing region, in [0, 1];
       // null when the model did not run (none loaded, or strategy=fge without mean_stiffness).
       {"mean_stiffness", std::isfinite(g.mean_stiffness) ? json(g.mean_stiffness) : json()},
-      // The instance under the grasp centre (0 = none) when the request used a segmentation.
-      {"instance_id", instance_id},
+      // The instance it grasps (0 = none) when the request used a segmentation.
+      {"instance_id", planned.instance_id ? json(*planned.instance_id) : json()},
       // That instance's mean deformability (0 rigid ... 1 very soft): the model's map only.
-      {"instance_deformability", instance_deformability},
+      {"instance_deformability", OrNull(planned.instance_deformability)},
       {"pose",
        {{"frame", "camera"},
         {"position_m", {g.p_CG_m[0], g.p_CG_m[1], g.p_CG_m[2]}},
         {"orientation_wxyz", {g.q_CG_wxyz[0], g.q_CG_wxyz[1], g.q_CG_wxyz[2], g.q_CG_wxyz[3]}}}},
+      {"deformability", deformability},
   };
 }
 
@@ -78,10 +79,10 @@ json CameraToJson(const core::Camera& c) {
 }
 
 json GripperToJson(const core::Gripper& g) {
-  return {{"opening_stroke_mm", g.opening_stroke_mm},
-          {"finger_width_mm", g.finger_width_mm},
-          {"finger_thickness_mm", g.finger_thickness_mm},
-          {"finger_length_mm", g.finger_length_mm}};
+  return {{"opening_stroke_mm", core::MmFromMetres(g.opening_stroke_m)},
+          {"finger_width_mm", core::MmFromMetres(g.finger_width_m)},
+          {"finger_thickness_mm", core::MmFromMetres(g.finger_thickness_m)},
+          {"finger_length_mm", core::MmFromMetres(g.finger_length_m)}};
 }
 
 http::Response Healthz() { return http::Response::Json(200, R"({"status":"ok"})"); }
@@ -94,16 +95,16 @@ json RobotInfoJson(const ServiceConfig& config, bool running) {
   return robot;
 }
 
-json ModelsJson(const StiffnessModelPtr& model, const SegmentationModelPtr& segmentation) {
+json ModelsJson(const Models& models) {
   json list = json::array();
-  if (model) {
+  if (const auto& model = models.stiffness) {
     list.push_back({{"name", "pix2stiffness"},
                     {"kind", "stiffness"},
                     {"input_size", model->input_size()},
                     {"parameters", model->parameter_count()},
                     {"description", model->description()}});
   }
-  if (segmentation) {
+  if (const auto& segmentation = models.segmentation) {
     list.push_back({{"name", "segmentation"},
                     {"kind", "segmentation"},
                     {"input_width", segmentation->input_width()},
@@ -129,22 +130,23 @@ json DeformabilityDefaultsJson() {
           {"max_targets", d.max_targets}};
 }
 
-json Strategies(bool stiffness_model, bool segmentation_model) {
-  json out = {"fge"};
-  if (stiffness_model) out.push_back("stiffness");
-  if (segmentation_model) out.push_back("deformability");
+json Strategies(const Models& models) {
+  json out = json::array();
+  for (const engine::Strategy s : engine::ServedStrategies(models)) {
+    out.push_back(engine::StrategyName(s));
+  }
   return out;
 }
 
-json Overlays(bool stiffness_model, bool segmentation_model) {
+json Overlays(const Models& models) {
   json out = {"depth"};
-  if (stiffness_model) out.push_back("stiffness");
-  if (segmentation_model) out.push_back("deformability");
+  if (models.stiffness) out.push_back("stiffness");
+  if (models.segmentation) out.push_back("deformability");
   return out;
 }
 
-http::Response Info(const ServiceConfig& config, bool robot_running,
-                    const StiffnessModelPtr& model, const SegmentationModelPtr& segmentation) {
+http::Response Info(const ServiceConfig& config, bool robot_running, const Models& models) {
+  const bool segmentation = models.segmentation != nullptr;
   const auto& limits = config.server.limits;
   json body = {
       {"name", "softgrasp"},
@@ -166,11 +168,11 @@ http::Response Info(const ServiceConfig& config, bool robot_running,
         {"body_timeout_ms", config.server.body_timeout_ms},
         {"max_fractal_points", config.max_fractal_points},
         {"max_fractal_attempts", config.max_fractal_attempts}}},
-      {"models", ModelsJson(model, segmentation)},
-      {"strategies", Strategies(model != nullptr, segmentation != nullptr)},
-      {"default_strategy", segmentation ? "deformability" : (model ? "stiffness" : "fge")},
+      {"models", ModelsJson(models)},
+      {"strategies", Strategies(models)},
+      {"default_strategy", engine::StrategyName(engine::DefaultStrategy(models))},
       {"target_policies", {"highest", "least_deformable"}},
-      {"overlays", Overlays(model != nullptr, segmentation != nullptr)},
+      {"overlays", Overlays(models)},
       {"depth_formats", {"npy", "png16", "tiff"}},
       {"stiffness_formats", {"png8", "png16", "npy", "color"}},
       {"segmentation_methods", segmentation ? json{"model", "pcl"} : json{"pcl"}},
@@ -198,142 +200,44 @@ http::Response PngResponse(const cv::Mat& image, std::size_t grasp_count) {
 }
 
 // The picture under the grasps of a PNG answer: the depth, the stiffness model's map, or the
-// segmentation model's deformability map with the target (`target_id` > 0) outlined.
-cv::Mat3b OverlayPicture(const GraspRequest& in, const DepthUpload& up, const cv::Mat1f& stiffness,
-                         const GraspInstances* instances, int target_id) {
+// segmentation model's deformability map with the target outlined.
+cv::Mat3b OverlayPicture(const GraspRequest& in, const engine::Plan& plan) {
   switch (in.overlay) {
     case OverlayBackground::kStiffness:
-      return io::ColorizeStiffness(stiffness, models::kBackgroundThreshold);
+      return io::ColorizeStiffness(plan.stiffness, models::kBackgroundThreshold);
     case OverlayBackground::kDeformability: {
-      if (instances == nullptr) break;  // not reached: the parser asks for instances
-      const cv::Mat3b map = io::ColorizeDeformability(instances->deformability,
-                                                      instances->foreground > 0.5f);
-      const int outlined = target_id > 0 ? target_id : in.target_id;
-      return outlined > 0 ? io::DrawOutline(map, instances->labels == outlined) : map;
+      if (!plan.instances) break;  // not reached: the overlay asks for instances
+      const engine::Instances& instances = *plan.instances;
+      const cv::Mat3b map =
+          io::ColorizeDeformability(instances.deformability, instances.foreground > 0.5f);
+      const int chosen = plan.target && plan.target->id > 0 ? plan.target->id : in.plan.target_id;
+      return chosen > 0 ? io::DrawOutline(map, instances.labels == chosen) : map;
     }
     case OverlayBackground::kDepth:
       break;
   }
-  return io::ColorizeDepth(up.depth);
+  return io::ColorizeDepth(in.upload.depth);
 }
 
-http::Response Grasps(const http::Request& request, const ServiceConfig& config,
-                      const StiffnessModelPtr& model, const SegmentationModelPtr& segmenter) {
-  const auto start = Clock::now();
-  auto parsed = ParseGraspRequest(request, config,
-                                  LoadedModels{model != nullptr, segmenter != nullptr});
-  if (!parsed.ok()) return ErrorToResponse(parsed.error());
-  const GraspRequest& in = parsed.value();
+json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models& models,
+                  double decode_ms, double total_ms) {
   const DepthUpload& up = in.upload;
-  const double decode_ms = MillisecondsSince(start);
-  const bool png = in.output == OutputFormat::kPng;
-  if (png && !in.draw_grasps && in.overlay == OverlayBackground::kDepth) {
-    // The picture alone needs no planning; the client asks for the grasps separately.
-    return PngResponse(io::ColorizeDepth(up.depth), 0);
-  }
-
-  const auto preprocess_start = Clock::now();
-  auto preprocessed = core::Preprocess(up.depth, up.camera);
-  if (!preprocessed.ok()) return ErrorToResponse(preprocessed.error());
-  core::Scene scene = std::move(preprocessed).value();
-  core::RestrictContact(scene, in.region_of_interest, in.min_depth_m);
-  const double preprocess_ms = MillisecondsSince(preprocess_start);
-
-  // Instances only when the request asks for them (segmenting is not free), and for pictures
-  // only when a target, the deformability strategy or its map needs them (the picture shows no
-  // instance ids).
-  const bool by_deformability = in.strategy == GraspStrategy::kDeformability;
-  const bool deformability_overlay = png && in.overlay == OverlayBackground::kDeformability;
-  std::optional<GraspInstances> instances;
-  if (in.wants_instances() &&
-      (!png || in.target_id > 0 || by_deformability || deformability_overlay)) {
-    auto found = InstancesForGrasps(in, scene, up.camera, segmenter.get());
-    if (!found.ok()) return ErrorToResponse(found.error());
-    instances = std::move(found).value();
-    if (in.target_id > 0 && !by_deformability) {
-      // Contacts on the target only; every other object stays an obstacle. (The deformability
-      // strategy handles its target itself: soft neighbours may be pressed.)
-      core::RestrictContact(scene, instances->labels == in.target_id, in.min_depth_m);
-    }
-  }
-
-  // The model runs only when the answer shows its map: the stiffness strategy, the stiffness
-  // overlay, or FGE grasps with mean_stiffness asked for.
-  const bool need_stiffness =
-      model && (in.strategy == GraspStrategy::kStiffness ||
-                (png && in.overlay == OverlayBackground::kStiffness) ||
-                (!png && in.report_mean_stiffness));
-  const auto stiffness_start = Clock::now();
-  cv::Mat1f stiffness;
-  if (need_stiffness) stiffness = model->PredictScene(scene);
-  const double stiffness_ms = MillisecondsSince(stiffness_start);
-  if (png && !in.draw_grasps) {
-    return PngResponse(OverlayPicture(in, up, stiffness, instances ? &*instances : nullptr, 0), 0);
-  }
-
-  const auto detect_start = Clock::now();
-  std::vector<core::Grasp> grasps;
-  core::DeformabilityResult planned;
-  if (by_deformability) {
-    core::DeformabilityParams params = in.deformability;
-    params.fge = in.fge;
-    planned = core::DetectGraspsDeformability(
-        scene, up.camera,
-        {instances->labels, instances->scores, instances->deformability, instances->foreground},
-        in.gripper, params);
-    for (const auto& dg : planned.grasps) grasps.push_back(dg.grasp);
-  } else if (in.strategy == GraspStrategy::kStiffness) {
-    core::StiffnessFgeParams params;
-    params.fge = in.fge;
-    grasps = core::DetectGraspsStiffness(scene, up.camera, stiffness, in.gripper, params);
-  } else {
-    grasps = core::DetectGraspsFge(scene, up.camera, in.gripper, in.fge);
-    if (!stiffness.empty()) {
-      for (core::Grasp& g : grasps) {
-        g.mean_stiffness = core::ContactMeanStiffness(scene, stiffness, g);
-      }
-    }
-  }
-  const double detect_ms = MillisecondsSince(detect_start);
-
-  if (png) {
-    const cv::Mat3b background =
-        OverlayPicture(in, up, stiffness, instances ? &*instances : nullptr, planned.target_id);
-    return PngResponse(io::DrawGrasps(background, grasps), grasps.size());
-  }
   json list = json::array();
-  for (std::size_t i = 0; i < grasps.size(); ++i) {
-    json g = GraspToJson(grasps[i], static_cast<int>(i) + 1, instances ? &*instances : nullptr);
-    if (by_deformability) {
-      const core::DeformabilityGrasp& dg = planned.grasps[i];
-      g["instance_id"] = dg.instance_id;
-      g["deformability"] = {{"target_policy", core::TargetPolicyName(in.deformability.policy)},
-                            {"target_by", planned.fallback       ? "fallback"
-                                          : in.target_id > 0 ? "request"
-                                                             : "policy"},
-                            {"slice", dg.grasp.height_step},
-                            {"opening_fraction", dg.opening_fraction},
-                            {"mean_deformability", OrNull(dg.mean_deformability)},
-                            {"pressed_instances", dg.pressed_ids},
-                            {"press_depth_m", dg.press_depth_m}};
-    } else {
-      g["deformability"] = nullptr;
-    }
-    list.push_back(std::move(g));
+  for (std::size_t i = 0; i < plan.grasps.size(); ++i) {
+    list.push_back(GraspToJson(plan.grasps[i], static_cast<int>(i) + 1));
   }
   json camera = CameraToJson(up.camera);
   camera["source"] = up.camera_source;
-  json timing = {{"decode", decode_ms}, {"preprocess", preprocess_ms}};
-  if (need_stiffness) timing["stiffness"] = stiffness_ms;
+  json timing = {{"decode", decode_ms}, {"preprocess", plan.timing.preprocess_ms}};
+  if (plan.timing.stiffness_ran) timing["stiffness"] = plan.timing.stiffness_ms;
   // The segmenter's time: it ran to segment, or (labels given) for the deformability map.
-  if (instances && instances->milliseconds > 0) {
-    timing["segmentation"] = instances->milliseconds;
-  }
-  timing["detect"] = detect_ms;
-  timing["total"] = MillisecondsSince(start);
+  if (plan.timing.segmentation_ms > 0) timing["segmentation"] = plan.timing.segmentation_ms;
+  timing["detect"] = plan.timing.detect_ms;
+  timing["total"] = total_ms;
+  const core::Scene& scene = plan.scene;
   json body = {
-      {"strategy", StrategyName(in.strategy)},
-      {"stiffness_model", model ? json("pix2stiffness") : json()},
+      {"strategy", engine::StrategyName(in.plan.strategy)},
+      {"stiffness_model", models.stiffness ? json("pix2stiffness") : json()},
       {"image",
        {{"width", up.depth.width()},
         {"height", up.depth.height()},
@@ -343,24 +247,54 @@ http::Response Grasps(const http::Request& request, const ServiceConfig& config,
       {"floor",
        {{"normal", {scene.floor.n[0], scene.floor.n[1], scene.floor.n[2]}},
         {"d_m", scene.floor.d}}},
-      {"gripper", GripperToJson(in.gripper)},
+      {"gripper", GripperToJson(in.plan.gripper)},
       {"contact_region",
-       {{"segmask", !in.region_of_interest.empty()},
-        {"min_depth_m", in.min_depth_m},
-        {"target", in.target_id > 0 ? json(in.target_id) : json()}}},
-      {"segmentation",
-       instances ? json{{"source", instances->source}, {"instances", instances->count}}
-                 : json()},
+       {{"segmask", !in.plan.region_of_interest.empty()},
+        {"min_depth_m", in.plan.min_depth_m},
+        {"target", in.plan.target_id > 0 ? json(in.plan.target_id) : json()}}},
+      {"segmentation", plan.instances ? json{{"source", plan.instances->source},
+                                             {"instances", plan.instances->count}}
+                                      : json()},
       {"grasps", list},
       {"timing_ms", timing},
   };
-  if (by_deformability) {
-    body["target"] = {{"id", planned.target_id > 0 ? json(planned.target_id) : json()},
-                      {"policy", core::TargetPolicyName(in.deformability.policy)},
-                      {"tried", planned.tried_ids},
-                      {"fallback", planned.fallback}};
+  if (const auto& t = plan.target) {
+    body["target"] = {{"id", t->id > 0 ? json(t->id) : json()},
+                      {"policy", core::TargetPolicyName(t->policy)},
+                      {"tried", t->tried_ids},
+                      {"fallback", t->fallback}};
   }
-  return http::Response::Json(200, body.dump());
+  return body;
+}
+
+http::Response Grasps(const http::Request& request, const ServiceConfig& config,
+                      const Models& models) {
+  const auto start = Clock::now();
+  auto parsed = ParseGraspRequest(request, config, models);
+  if (!parsed.ok()) return ErrorToResponse(parsed.error());
+  GraspRequest& in = parsed.value();
+  const double decode_ms = MillisecondsSince(start);
+  const bool png = in.output == OutputFormat::kPng;
+  if (png && !in.draw_grasps && in.overlay == OverlayBackground::kDepth) {
+    // The picture alone needs no planning; the client asks for the grasps separately.
+    return PngResponse(io::ColorizeDepth(in.upload.depth), 0);
+  }
+  // A picture shows no instance ids and no mean stiffness; it shows the overlay's map.
+  in.plan.report_instances = in.plan.report_instances && !png;
+  in.plan.mean_stiffness = in.plan.mean_stiffness && !png;
+  in.plan.want_stiffness_map = png && in.overlay == OverlayBackground::kStiffness;
+  in.plan.want_deformability_map = in.overlay == OverlayBackground::kDeformability;
+  in.plan.plan = !png || in.draw_grasps;
+  auto planned = engine::PlanGrasps(in.upload.depth, in.upload.camera, in.plan, models);
+  if (!planned.ok()) return ErrorToResponse(planned.error());
+  const engine::Plan& plan = planned.value();
+  if (png) {
+    std::vector<core::Grasp> grasps;
+    for (const auto& g : plan.grasps) grasps.push_back(g.grasp);
+    return PngResponse(io::DrawGrasps(OverlayPicture(in, plan), grasps), grasps.size());
+  }
+  return http::Response::Json(
+      200, GraspsToJson(in, plan, models, decode_ms, MillisecondsSince(start)).dump());
 }
 
 // A map in [0, 1] as /v1/stiffness sends it: png8 round(255 x), png16 round(65535 x), npy x
@@ -385,7 +319,7 @@ http::Response EncodeMap(const cv::Mat1f& map, StiffnessFormat format, Colorize&
 
 // POST /v1/stiffness: the model's map of the uploaded depth, same size as the input.
 http::Response Stiffness(const http::Request& request, const ServiceConfig& config,
-                         const StiffnessModelPtr& model) {
+                         const models::StiffnessModel* model) {
   if (!model) {
     return ErrorToResponse(core::MakeError(
         core::ErrorCode::kUnavailable,
@@ -425,14 +359,15 @@ json InstanceToJson(const segmentation::InstanceInfo& i) {
 
 // POST /v1/segmentation: object instances of the uploaded depth (docs/segmentation.md).
 http::Response Segmentation(const http::Request& request, const ServiceConfig& config,
-                            const StiffnessModelPtr& stiffness_model,
-                            const SegmentationModelPtr& model) {
+                            const Models& models) {
+  const models::StiffnessModel* stiffness_model = models.stiffness.get();
+  const models::SegmentationModel* model = models.segmentation.get();
   const auto start = Clock::now();
   auto parsed = ParseSegmentationRequest(request, config);
   if (!parsed.ok()) return ErrorToResponse(parsed.error());
   const SegmentationRequest& in = parsed.value();
   const DepthUpload& up = in.upload;
-  auto method = ResolveSegmentationMethod(in.method, model != nullptr, "method");
+  auto method = engine::ResolveSegmentationMethod(in.method, model != nullptr, "method");
   if (!method.ok()) return ErrorToResponse(method.error());
   if (in.format == SegmentationFormat::kDeformability &&
       method.value() == segmentation::Method::kPcl) {
@@ -451,9 +386,9 @@ http::Response Segmentation(const http::Request& request, const ServiceConfig& c
   const core::Scene scene = std::move(preprocessed).value();
   const double preprocess_ms = MillisecondsSince(preprocess_start);
 
-  auto segmented = SegmentInstances(scene, up.camera, method.value(), model.get());
+  auto segmented = engine::SegmentInstances(scene, up.camera, method.value(), model);
   if (!segmented.ok()) return ErrorToResponse(segmented.error());
-  const SceneInstances& found = segmented.value();
+  const engine::SceneInstances& found = segmented.value();
   const std::string timing_header = "preprocess;dur=" + std::to_string(preprocess_ms) +
                                     ", segment;dur=" + std::to_string(found.milliseconds);
 
@@ -478,7 +413,7 @@ http::Response Segmentation(const http::Request& request, const ServiceConfig& c
       const auto describe_start = Clock::now();
       double stiffness_ms = 0;
       const auto infos =
-          DescribeSceneInstances(found, scene, up.camera, stiffness_model.get(), &stiffness_ms);
+          engine::DescribeSceneInstances(found, scene, up.camera, stiffness_model, &stiffness_ms);
       const double describe_ms = MillisecondsSince(describe_start) - stiffness_ms;
       json list = json::array();
       for (const auto& info : infos) list.push_back(InstanceToJson(info));
@@ -639,8 +574,9 @@ http::Response ErrorToResponse(const core::Error& error) {
 http::Router BuildRouter(const ServiceConfig& config) { return BuildRouter(config, nullptr); }
 
 http::Router BuildRouter(const ServiceConfig& config, std::shared_ptr<robot::CommandTracker> robot,
-                         StiffnessModelPtr stiffness_model,
-                         SegmentationModelPtr segmentation_model) {
+                         std::shared_ptr<const models::StiffnessModel> stiffness_model,
+                         std::shared_ptr<const models::SegmentationModel> segmentation_model) {
+  const Models models{std::move(stiffness_model), std::move(segmentation_model)};
   http::Router router;
   const bool robot_running = robot != nullptr;
   // Constant-time answers: served on the I/O thread, so they answer while every worker plans.
@@ -649,21 +585,18 @@ http::Router BuildRouter(const ServiceConfig& config, std::shared_ptr<robot::Com
       http::Router::Execution::kInline);
   router.Add(
       "GET", "/v1/info",
-      [config, robot_running, stiffness_model, segmentation_model](const http::Request&) {
-        return Info(config, robot_running, stiffness_model, segmentation_model);
+      [config, robot_running, models](const http::Request&) {
+        return Info(config, robot_running, models);
       },
       http::Router::Execution::kInline);
   router.Add("POST", "/v1/grasps",
-             [config, stiffness_model, segmentation_model](const http::Request& r) {
-               return Grasps(r, config, stiffness_model, segmentation_model);
-             });
-  router.Add("POST", "/v1/stiffness", [config, stiffness_model](const http::Request& r) {
-    return Stiffness(r, config, stiffness_model);
+             [config, models](const http::Request& r) { return Grasps(r, config, models); });
+  router.Add("POST", "/v1/stiffness", [config, models](const http::Request& r) {
+    return Stiffness(r, config, models.stiffness.get());
   });
-  router.Add("POST", "/v1/segmentation",
-             [config, stiffness_model, segmentation_model](const http::Request& r) {
-               return Segmentation(r, config, stiffness_model, segmentation_model);
-             });
+  router.Add("POST", "/v1/segmentation", [config, models](const http::Request& r) {
+    return Segmentation(r, config, models);
+  });
   router.Add("POST", "/v1/fractals",
              [config](const http::Request& r) { return Fractals(r, config); });
 

@@ -38,6 +38,16 @@ Setter Number(T* target, double min, double max) {
   };
 }
 
+// A size the file gives in millimetres, kept in metres.
+Setter Millimetres(double* target_m, double min_mm, double max_mm) {
+  return [=](const json& v) -> std::string {
+    double mm = 0;
+    const std::string problem = Number(&mm, min_mm, max_mm)(v);
+    if (problem.empty()) *target_m = core::MetresFromMm(mm);
+    return problem;
+  };
+}
+
 Setter String(std::string* target) {
   return [=](const json& v) -> std::string {
     if (!v.is_string()) return "must be a string";
@@ -144,10 +154,10 @@ std::map<std::string, std::map<std::string, Setter>> Sections(ServiceConfig& c) 
         {"width", Number(&cam.width, 1, 1e6)},
         {"height", Number(&cam.height, 1, 1e6)}}},
       {"gripper",
-       {{"opening_stroke_mm", Number(&g.opening_stroke_mm, 1, 1000)},
-        {"finger_width_mm", Number(&g.finger_width_mm, 0.5, 500)},
-        {"finger_thickness_mm", Number(&g.finger_thickness_mm, 0.5, 500)},
-        {"finger_length_mm", Number(&g.finger_length_mm, 1, 1000)}}},
+       {{"opening_stroke_mm", Millimetres(&g.opening_stroke_m, 1, 1000)},
+        {"finger_width_mm", Millimetres(&g.finger_width_m, 0.5, 500)},
+        {"finger_thickness_mm", Millimetres(&g.finger_thickness_m, 0.5, 500)},
+        {"finger_length_mm", Millimetres(&g.finger_length_m, 1, 1000)}}},
       {"fge",
        {{"num_angles", Number(&f.num_angles, 1, 180)},
         {"height_step_m", Number(&f.height_step_m, 0.001, 0.5)},
@@ -469,10 +479,10 @@ std::string ConfigToJson(const ServiceConfig& c) {
         {"width", cam.width},
         {"height", cam.height}}},
       {"gripper",
-       {{"opening_stroke_mm", g.opening_stroke_mm},
-        {"finger_width_mm", g.finger_width_mm},
-        {"finger_thickness_mm", g.finger_thickness_mm},
-        {"finger_length_mm", g.finger_length_mm}}},
+       {{"opening_stroke_mm", core::MmFromMetres(g.opening_stroke_m)},
+        {"finger_width_mm", core::MmFromMetres(g.finger_width_m)},
+        {"finger_thickness_mm", core::MmFromMetres(g.finger_thickness_m)},
+        {"finger_length_mm", core::MmFromMetres(g.finger_length_m)}}},
       {"fge",
        {{"num_angles", f.num_angles},
         {"height_step_m", f.height_step_m},

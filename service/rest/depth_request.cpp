@@ -97,26 +97,26 @@ struct NumericOption {
 
 const std::map<std::string, NumericOption>& NumericOptions() {
   static const std::map<std::string, NumericOption> options = {
-      {"opening_stroke_mm", {1, 1000, false, [](GraspRequest& r, double v) { r.gripper.opening_stroke_mm = v; }}},
-      {"finger_width_mm", {0.5, 500, false, [](GraspRequest& r, double v) { r.gripper.finger_width_mm = v; }}},
-      {"finger_thickness_mm", {0.5, 500, false, [](GraspRequest& r, double v) { r.gripper.finger_thickness_mm = v; }}},
-      {"finger_length_mm", {1, 1000, false, [](GraspRequest& r, double v) { r.gripper.finger_length_mm = v; }}},
-      {"top_k", {1, kMaxTopK, true, [](GraspRequest& r, double v) { r.fge.top_k = static_cast<int>(v); }}},
-      {"num_angles", {1, 180, true, [](GraspRequest& r, double v) { r.fge.num_angles = static_cast<int>(v); }}},
-      {"num_height_steps", {1, 20, true, [](GraspRequest& r, double v) { r.fge.num_height_steps = static_cast<int>(v); }}},
-      {"height_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.fge.height_step_m = v / 1000.0; }}},
-      {"grip_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.fge.grip_depth_m = v / 1000.0; }}},
-      {"min_depth_m", {0, 100, false, [](GraspRequest& r, double v) { r.min_depth_m = v; }}},
+      {"opening_stroke_mm", {1, 1000, false, [](GraspRequest& r, double v) { r.plan.gripper.opening_stroke_m = core::MetresFromMm(v); }}},
+      {"finger_width_mm", {0.5, 500, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_width_m = core::MetresFromMm(v); }}},
+      {"finger_thickness_mm", {0.5, 500, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_thickness_m = core::MetresFromMm(v); }}},
+      {"finger_length_mm", {1, 1000, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_length_m = core::MetresFromMm(v); }}},
+      {"top_k", {1, kMaxTopK, true, [](GraspRequest& r, double v) { r.plan.fge.top_k = static_cast<int>(v); }}},
+      {"num_angles", {1, 180, true, [](GraspRequest& r, double v) { r.plan.fge.num_angles = static_cast<int>(v); }}},
+      {"num_height_steps", {1, 20, true, [](GraspRequest& r, double v) { r.plan.fge.num_height_steps = static_cast<int>(v); }}},
+      {"height_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.plan.fge.height_step_m = v / 1000.0; }}},
+      {"grip_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.plan.fge.grip_depth_m = v / 1000.0; }}},
+      {"min_depth_m", {0, 100, false, [](GraspRequest& r, double v) { r.plan.min_depth_m = v; }}},
       // strategy=deformability (docs/deformability.md): Algorithm 1's K, L, M, R and the rules
       // for partially deformable objects and soft obstacles.
-      {"min_target_area_px", {0, 1e6, false, [](GraspRequest& r, double v) { r.deformability.min_target_area_px = v; }}},
-      {"slice_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.deformability.slice_step_m = v / 1000.0; }}},
-      {"num_slices", {1, 20, true, [](GraspRequest& r, double v) { r.deformability.num_slices = static_cast<int>(v); }}},
-      {"min_score", {0, 1, false, [](GraspRequest& r, double v) { r.deformability.min_score = v; }}},
-      {"stiff_part_fraction", {0, 1, false, [](GraspRequest& r, double v) { r.deformability.stiff_part_fraction = v; }}},
-      {"soft_obstacle_threshold", {0, 2, false, [](GraspRequest& r, double v) { r.deformability.soft_obstacle_threshold = v; }}},
-      {"max_press_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.deformability.max_press_depth_m = v / 1000.0; }}},
-      {"max_targets", {1, 64, true, [](GraspRequest& r, double v) { r.deformability.max_targets = static_cast<int>(v); }}},
+      {"min_target_area_px", {0, 1e6, false, [](GraspRequest& r, double v) { r.plan.deformability.min_target_area_px = v; }}},
+      {"slice_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.plan.deformability.slice_step_m = v / 1000.0; }}},
+      {"num_slices", {1, 20, true, [](GraspRequest& r, double v) { r.plan.deformability.num_slices = static_cast<int>(v); }}},
+      {"min_score", {0, 1, false, [](GraspRequest& r, double v) { r.plan.deformability.min_score = v; }}},
+      {"stiff_part_fraction", {0, 1, false, [](GraspRequest& r, double v) { r.plan.deformability.stiff_part_fraction = v; }}},
+      {"soft_obstacle_threshold", {0, 2, false, [](GraspRequest& r, double v) { r.plan.deformability.soft_obstacle_threshold = v; }}},
+      {"max_press_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.plan.deformability.max_press_depth_m = v / 1000.0; }}},
+      {"max_targets", {1, 64, true, [](GraspRequest& r, double v) { r.plan.deformability.max_targets = static_cast<int>(v); }}},
   };
   return options;
 }
@@ -306,29 +306,37 @@ core::Result<std::vector<double>> ParseOpeningFractions(const std::string& text)
 
 }  // namespace
 
-const char* StrategyName(GraspStrategy strategy) {
-  switch (strategy) {
-    case GraspStrategy::kStiffness:
-      return "stiffness";
-    case GraspStrategy::kDeformability:
-      return "deformability";
-    case GraspStrategy::kFge:
-      break;
+// "strategy": a registered name the loaded models serve (default: the last one they serve).
+core::Result<engine::Strategy> ParseStrategy(const RequestFields& fields,
+                                             const engine::Models& models) {
+  const auto f = fields.values.find("strategy");
+  if (f == fields.values.end()) return engine::DefaultStrategy(models);
+  const std::optional<engine::Strategy> strategy = engine::StrategyByName(f->second);
+  if (!strategy) {
+    std::string expected;
+    const auto& all = engine::Strategies();
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      expected += std::string(i == 0 ? "" : (i + 1 == all.size() ? " or " : ", ")) + "'" +
+                  all[i].name + "'";
+    }
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "strategy must be " + expected + ", got '" + f->second + "'", "strategy");
   }
-  return "fge";
+  return *strategy;
 }
 
 core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
-                                             const ServiceConfig& config, LoadedModels models) {
-  const bool stiffness_model_loaded = models.stiffness;
+                                             const ServiceConfig& config,
+                                             const engine::Models& models) {
   auto collected = CollectFields(request);
   if (!collected.ok()) return collected.error();
   const RequestFields& fields = collected.value();
 
   GraspRequest out;
-  out.gripper = config.default_gripper;
-  out.fge = config.fge;
-  out.min_depth_m = config.min_depth_m;
+  engine::PlanOptions& plan = out.plan;
+  plan.gripper = config.default_gripper;
+  plan.fge = config.fge;
+  plan.min_depth_m = config.min_depth_m;
 
   for (const auto& [key, text] : fields.values) {
     if (key == "format" || key == "strategy" || key == "draw" || key == "overlay" ||
@@ -348,60 +356,39 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
     }
     option->second.apply(out, v.value());
   }
-  const GraspStrategy default_strategy =
-      models.segmentation ? GraspStrategy::kDeformability
-                          : (stiffness_model_loaded ? GraspStrategy::kStiffness : GraspStrategy::kFge);
-  auto strategy = ParseChoice<GraspStrategy, 3>(
-      fields, "strategy", default_strategy, {"fge", "stiffness", "deformability"},
-      {GraspStrategy::kFge, GraspStrategy::kStiffness, GraspStrategy::kDeformability});
+  auto strategy = ParseStrategy(fields, models);
   if (!strategy.ok()) return strategy.error();
-  out.strategy = strategy.value();
+  plan.strategy = strategy.value();
+  if (auto why = engine::Unserved(models, plan.strategy)) return *why;
   auto overlay = ParseChoice<OverlayBackground, 3>(
       fields, "overlay", OverlayBackground::kDepth, {"depth", "stiffness", "deformability"},
       {OverlayBackground::kDepth, OverlayBackground::kStiffness, OverlayBackground::kDeformability});
   if (!overlay.ok()) return overlay.error();
   out.overlay = overlay.value();
-  if (!models.segmentation) {
-    if (out.strategy == GraspStrategy::kDeformability) {
-      return MakeError(ErrorCode::kInvalidArgument,
-                       "strategy 'deformability' needs a segmentation model and none is loaded "
-                       "(start the server with --segmentation-model); use strategy 'stiffness' "
-                       "or 'fge'",
-                       "strategy");
-    }
-    if (out.overlay == OverlayBackground::kDeformability) {
-      return MakeError(ErrorCode::kInvalidArgument,
-                       "overlay 'deformability' needs a segmentation model and none is loaded",
-                       "overlay");
-    }
+  if (out.overlay == OverlayBackground::kDeformability && !models.segmentation) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "overlay 'deformability' needs a segmentation model and none is loaded",
+                     "overlay");
+  }
+  if (out.overlay == OverlayBackground::kStiffness && !models.stiffness) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "overlay 'stiffness' needs a stiffness model and none is loaded", "overlay");
   }
   auto policy = ParseChoice<core::TargetPolicy, 2>(
       fields, "target_policy", core::TargetPolicy::kHighest, {"highest", "least_deformable"},
       {core::TargetPolicy::kHighest, core::TargetPolicy::kLeastDeformable});
   if (!policy.ok()) return policy.error();
-  out.deformability.policy = policy.value();
+  plan.deformability.policy = policy.value();
   if (const auto f = fields.values.find("opening_fractions"); f != fields.values.end()) {
     auto fractions = ParseOpeningFractions(f->second);
     if (!fractions.ok()) return fractions.error();
-    out.deformability.opening_fractions = std::move(fractions).value();
+    plan.deformability.opening_fractions = std::move(fractions).value();
   }
-  if (out.deformability.slice_step_m > out.gripper.finger_length_mm / 1000.0) {
+  if (plan.deformability.slice_step_m > plan.gripper.finger_length_m) {
     return MakeError(ErrorCode::kInvalidArgument,
                      "slice_step_mm must not exceed finger_length_mm (the fingertips go one "
                      "slice step below the contact)",
                      "slice_step_mm");
-  }
-  if (!stiffness_model_loaded) {
-    if (out.strategy == GraspStrategy::kStiffness) {
-      return MakeError(ErrorCode::kInvalidArgument,
-                       "strategy 'stiffness' needs a stiffness model and none is loaded (start "
-                       "the server with --stiffness-model); use strategy 'fge'",
-                       "strategy");
-    }
-    if (out.overlay == OverlayBackground::kStiffness) {
-      return MakeError(ErrorCode::kInvalidArgument,
-                       "overlay 'stiffness' needs a stiffness model and none is loaded", "overlay");
-    }
   }
   auto output = ResolveOutput(request, fields);
   if (!output.ok()) return output.error();
@@ -412,8 +399,8 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   auto report = ParseChoice<bool, 2>(fields, "mean_stiffness", false, {"true", "false"},
                                      {true, false});
   if (!report.ok()) return report.error();
-  out.report_mean_stiffness = report.value();
-  if (out.report_mean_stiffness && !stiffness_model_loaded) {
+  plan.mean_stiffness = report.value();
+  if (plan.mean_stiffness && !models.stiffness) {
     return MakeError(ErrorCode::kInvalidArgument,
                      "mean_stiffness needs a stiffness model and none is loaded", "mean_stiffness");
   }
@@ -432,17 +419,17 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
                            std::to_string(depth.width()) + "x" + std::to_string(depth.height()),
                        "segmask");
     }
-    out.region_of_interest = std::move(mask).value();
+    plan.region_of_interest = std::move(mask).value();
   }
 
   auto instances = ParseChoice<bool, 2>(fields, "instances", false, {"true", "false"},
                                         {true, false});
   if (!instances.ok()) return instances.error();
-  out.report_instances = instances.value();
+  plan.report_instances = instances.value();
   auto method = ParseChoice<std::optional<segmentation::Method>, 2>(
       fields, "segmentation", std::nullopt, kMethodNames, kMethods);
   if (!method.ok()) return method.error();
-  out.segmentation_method = method.value();
+  plan.instances.method = method.value();
   if (const auto target = fields.values.find("target"); target != fields.values.end()) {
     auto id = ParseNumber("target", target->second, 1, 65535);
     if (!id.ok()) return id.error();
@@ -452,19 +439,19 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
                            target->second + "'",
                        "target");
     }
-    out.target_id = static_cast<int>(id.value());
-    out.deformability.target_id = out.target_id;
+    plan.target_id = static_cast<int>(id.value());
   }
   if (fields.labels_bytes) {
     auto labels = DecodeLabels(*fields.labels_bytes, config, out.upload.depth);
     if (!labels.ok()) return labels.error();
-    out.instance_labels = std::move(labels).value();
-    if (out.segmentation_method) {
+    plan.instances.labels = std::move(labels).value();
+    if (plan.instances.method) {
       return MakeError(ErrorCode::kInvalidArgument,
                        "give either a labels part or segmentation, not both: labels are used "
                        "as they are",
                        "segmentation");
     }
+    plan.report_instances = true;  // a labels part asks for each grasp's instance
   }
   return out;
 }

@@ -7,10 +7,8 @@
 #include <string>
 
 #include "service/core/depth.h"
-#include "service/core/fge.h"
-#include "service/core/fge_deformability.h"
-#include "service/core/grasp.h"
 #include "service/core/status.h"
+#include "service/engine/engine.h"
 #include "service/http/message.h"
 #include "service/io/depth_codec.h"
 #include "service/rest/config.h"
@@ -27,27 +25,26 @@ struct DepthUpload {
 };
 
 enum class OutputFormat { kJson, kPng };
-enum class GraspStrategy {
-  kFge,        ///< classic FGE: graspability (centre of the contact surface)
-  kStiffness,  ///< stiffness-aware FGE on the model's map (needs a loaded model)
-  /// Algorithm 1 on one target object with the segmentation model's deformability map
-  /// (docs/deformability.md; needs a loaded segmentation model)
-  kDeformability,
-};
 /// What the PNG answer of /v1/grasps shows under the grasps.
 enum class OverlayBackground { kDepth, kStiffness, kDeformability };
 
-const char* StrategyName(GraspStrategy strategy);
-
+/// POST /v1/grasps: the upload, what to plan (engine::PlanOptions, filled from the fields below)
+/// and how to answer.
+///
+/// Planning fields: the gripper (`*_mm`), FGE's (top_k, num_angles, num_height_steps,
+/// height_step_mm, grip_depth_mm), "strategy" (engine::Strategies() names; default: the last
+/// one the loaded models serve), strategy=deformability's (target_policy, min_target_area_px
+/// (K), slice_step_mm (L), num_slices (M), min_score (R), opening_fractions,
+/// stiff_part_fraction, soft_obstacle_threshold, max_press_depth_mm, max_targets), the file
+/// part "segmask" (GQ-CNN's convention: a PNG of the depth's size, non-zero = contacts allowed),
+/// "min_depth_m" (default: the configuration's), "mean_stiffness" = true | false (fge grasps
+/// report the stiffness model's mean), the file part "labels" (a 16-bit PNG label image as
+/// POST /v1/segmentation?format=labels gives it, used instead of segmenting again), "target"
+/// (an instance id), "instances" = true | false (report each grasp's instance; implied by
+/// "target" and "labels"), "segmentation" = model | pcl (the segmenter when one runs).
 struct GraspRequest {
   DepthUpload upload;
-  core::Gripper gripper;
-  core::FgeParams fge;
-  GraspStrategy strategy = GraspStrategy::kFge;
-  /// strategy=deformability: fields target_policy, min_target_area_px (K), slice_step_mm (L),
-  /// num_slices (M), min_score (R), opening_fractions, stiff_part_fraction,
-  /// soft_obstacle_threshold, max_press_depth_mm; target_id is copied from "target".
-  core::DeformabilityParams deformability;
+  engine::PlanOptions plan;
   OutputFormat output = OutputFormat::kJson;
   /// PNG answers only: field "draw" = "grasps" (default) or "none" (the picture alone, e.g. as
   /// the background a client draws its own grasps on).
@@ -55,45 +52,12 @@ struct GraspRequest {
   /// PNG answers only: field "overlay" = "depth" (default), "stiffness" (the stiffness model's
   /// map) or "deformability" (the segmentation model's map, the target outlined).
   OverlayBackground overlay = OverlayBackground::kDepth;
-  /// File part "segmask" (GQ-CNN's convention: a PNG of the depth's size, non-zero = allowed):
-  /// grasps only with contact on the mask. Empty = the whole image.
-  cv::Mat1b region_of_interest;
-  /// Field "min_depth_m" (default: the configuration's): nearer surfaces are obstacles only.
-  double min_depth_m = 0.0;
-  /// Field "mean_stiffness" = "true" | "false": whether strategy=fge grasps report the model's
-  /// mean stiffness (it costs a model run). Default false; the stiffness strategy always does.
-  bool report_mean_stiffness = false;
-  /// File part "labels": an instance label image of the depth's size (the 16-bit PNG of
-  /// POST /v1/segmentation?format=labels; 0 = no object), used instead of segmenting again.
-  /// Empty = none given.
-  cv::Mat1w instance_labels;
-  /// Field "target" (> 0): only grasps with contacts on this instance; other objects stay
-  /// obstacles. 0 = any object.
-  int target_id = 0;
-  /// Field "instances" = "true" | "false": report each grasp's instance (segments the scene
-  /// unless labels are given). Default false; implied by "target" and by a "labels" part.
-  bool report_instances = false;
-  /// Field "segmentation" = "model" | "pcl": the segmenter when one has to run. Unset: the
-  /// model when one is loaded, else pcl.
-  std::optional<segmentation::Method> segmentation_method;
-  /// Whether the answer needs an instance segmentation (given or computed).
-  bool wants_instances() const {
-    return report_instances || target_id > 0 || !instance_labels.empty() ||
-           strategy == GraspStrategy::kDeformability ||
-           overlay == OverlayBackground::kDeformability;
-  }
 };
 
-/// Which models the service has loaded: they decide what can be served and the default
-/// strategy (deformability with a segmentation model, else stiffness with a stiffness model,
-/// else fge).
-struct LoadedModels {
-  bool stiffness = false;     ///< strategy=stiffness, overlay=stiffness, mean_stiffness
-  bool segmentation = false;  ///< strategy=deformability, overlay=deformability
-};
-
+/// Which strategies and overlays can be served, and the default strategy, follow from `models`.
 core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
-                                             const ServiceConfig& config, LoadedModels models);
+                                             const ServiceConfig& config,
+                                             const engine::Models& models);
 
 /// POST /v1/stiffness answer formats: 8-bit PNG (round(255 s)), 16-bit PNG (round(65535 s)),
 /// NPY float32 (s itself), or the colour-mapped picture (PNG).

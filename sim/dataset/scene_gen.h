@@ -8,8 +8,10 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <opencv2/core.hpp>
 #include <vector>
 
+#include "service/core/depth.h"
 #include "service/core/status.h"
 #include "service/mesh/fractal.h"
 #include "sim/catalogue/catalogue.h"
@@ -92,5 +94,10 @@ nlohmann::json SceneSpecToJson(const SceneSpec& spec);
 /// The inverse of SceneSpecToJson. Errors: kInvalidArgument naming the missing or malformed
 /// key; kUnprocessable when the spec drew from user objects (their meshes are not in the JSON).
 core::Result<SceneSpec> SceneSpecFromJson(const nlohmann::json& json);
+
+/// 255 inside the bin's inner floor area as `cam` sees it from spec.render.world_from_camera
+/// (shrunk by `margin_px`): the workspace ROI of a bin-picking cell, given to the planners as
+/// their contact region (the walls stay obstacles; FGE alone would grasp their free edges).
+cv::Mat1b BinWorkspaceRoi(const SceneSpec& spec, const core::Camera& cam, int margin_px);
 
 }  // namespace softgrasp::sim

@@ -131,7 +131,7 @@ ZRange SceneZRange(const SimScene& scene) {
   return z;
 }
 
-std::optional<core::Error> Validate(const SimGrasp& g, const SimGripper& p) {
+std::optional<core::Error> Validate(const SimGrasp& g, const core::Gripper& p) {
   const std::pair<const char*, double> finite[] = {
       {"center_x_m", g.center_x_m},
       {"center_y_m", g.center_y_m},
@@ -211,7 +211,7 @@ struct DescentHit {
 /// Returns, per instance met (0 = the support), its highest hit: the first a descending finger
 /// would touch. Highest first.
 std::vector<DescentHit> Descend(const SceneRaycaster& raycaster, const GraspFrame& frame,
-                                const SimGrasp& grasp, const SimGripper& gripper,
+                                const SimGrasp& grasp, const core::Gripper& gripper,
                                 const ZRange& scene_z) {
   const double tip_z = grasp.fingertip_height_m;
   const double top_z = std::max(scene_z.hi_m, tip_z) + kStartClearanceM;
@@ -279,7 +279,7 @@ double ObjectHeightM(const PlacedObject& placed) {
 
 /// Instance ids of the surfaces above the fingertip plane between the open fingers.
 std::set<int> IdsBetweenFingers(const SceneRaycaster& raycaster, const GraspFrame& frame,
-                                const SimGrasp& grasp, const SimGripper& gripper,
+                                const SimGrasp& grasp, const core::Gripper& gripper,
                                 const ZRange& scene_z) {
   std::set<int> ids;
   const double tip_z = grasp.fingertip_height_m;
@@ -311,7 +311,7 @@ struct Contact {
 /// Closes one finger: rays from its inner face (over the face's width and from the fingertip up
 /// to the finger length) along the closing direction, across the whole opening.
 Contact Close(const SceneRaycaster& raycaster, const GraspFrame& frame, const SimGrasp& grasp,
-              const SimGripper& gripper, const Finger& finger) {
+              const core::Gripper& gripper, const Finger& finger) {
   const Eigen::Vector3d direction_w = -finger.sign * frame.closing_w;
   const double face_a = finger.sign * grasp.opening_m / 2.0;
   const double half_width = gripper.finger_width_m / 2.0;
@@ -455,7 +455,7 @@ SimGrasp SimGraspFromCamera(const core::Grasp& grasp, const Eigen::Isometry3d& w
 }
 
 core::Result<GraspExecution> ExecuteGrasp(const SimScene& scene, const SceneRaycaster& raycaster,
-                                          const SimGrasp& grasp, const SimGripper& gripper) {
+                                          const SimGrasp& grasp, const core::Gripper& gripper) {
   if (auto error = Validate(grasp, gripper)) return *error;
   const GraspFrame frame(grasp);
   const ZRange scene_z = SceneZRange(scene);
@@ -577,7 +577,7 @@ core::Result<GraspExecution> ExecuteGrasp(const SimScene& scene, const SceneRayc
 }
 
 core::Result<GraspExecution> ExecuteAndRemove(SimScene* scene, const SimGrasp& grasp,
-                                              const SimGripper& gripper) {
+                                              const core::Gripper& gripper) {
   if (scene == nullptr) {
     return MakeError(ErrorCode::kInvalidArgument, "scene is null", "scene");
   }

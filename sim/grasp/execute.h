@@ -15,21 +15,6 @@
 
 namespace softgrasp::sim {
 
-/// A parallel gripper, in SI units.
-struct SimGripper {
-  double opening_stroke_m = 0.05;     ///< widest distance between the inner finger faces
-  double finger_width_m = 0.015;      ///< finger size across the closing axis
-  double finger_thickness_m = 0.008;  ///< finger size along the closing axis
-  double finger_length_m = 0.04;      ///< how far fingers reach below the palm
-  double closing_force_n = 10.0;      ///< constant force each finger pushes with once in contact
-  double friction_coefficient = 0.5;  ///< finger pad / object Coulomb friction
-  /// Largest downward force a descending finger may push a neighbour with (the arm stops
-  /// above it): a neighbour that yields to the fingertip height under this force (Hooke's law
-  /// on the stiffness of the surface the finger meets first), by at most half its height, is
-  /// pressed aside; anything else is a collision. 0 = every contact on the way down collides.
-  double max_press_force_n = 20.0;
-};
-
 /// A 4-DoF grasp in W: fingertips at height z = fingertip_height_m, centred on (x, y), closing
 /// axis at angle_rad from +x towards +y, fingers opened to opening_m before descending.
 struct SimGrasp {
@@ -83,14 +68,14 @@ struct GraspExecution {
 /// limits listed in docs/sim-grasp-execution.md: sizes <= 1 m, |coordinates| <= 1 km, force > 0,
 /// friction >= 0).
 core::Result<GraspExecution> ExecuteGrasp(const SimScene& scene, const SceneRaycaster& raycaster,
-                                          const SimGrasp& grasp, const SimGripper& gripper);
+                                          const SimGrasp& grasp, const core::Gripper& gripper);
 
 /// Builds a raycaster for `*scene`, executes `grasp`, and on success removes the held object from
 /// the scene (a picked object leaves, so a bin can be cleared grasp by grasp). The scene is left
 /// untouched on any other outcome or error. Errors: those of ExecuteGrasp and
 /// SceneRaycaster::Build, and kInvalidArgument for a null scene.
 core::Result<GraspExecution> ExecuteAndRemove(SimScene* scene, const SimGrasp& grasp,
-                                              const SimGripper& gripper);
+                                              const core::Gripper& gripper);
 
 /// The Hooke-law spring rate of a finger contact on a surface of stiffness score `stiffness`
 /// (clamped to [0.1, 1]), in N/mm: log-linear from 0.2 N/mm at 0.1 (sponge) to 1000 N/mm at 1.0

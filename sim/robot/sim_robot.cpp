@@ -205,7 +205,7 @@ bridge::GraspResult SimRobot::ExecuteLocked(const bridge::GraspCommand& command)
   grasp.q_CG_wxyz = {q_FG.w(), q_FG.x(), q_FG.y(), q_FG.z()};
   grasp.opening_m = command.opening_width_m;
   const SimGrasp sim_grasp = SimGraspFromCamera(grasp, *world_from_frame);
-  SimGripper gripper = options_.gripper;
+  core::Gripper gripper = options_.gripper;
   gripper.closing_force_n = command.closing_force_n;
 
   auto execution = ExecuteAndRemove(&current_.scene, sim_grasp, gripper);

@@ -50,7 +50,7 @@ struct SimRobotView {
 
 /// The robot's fixed parts.
 struct SimRobotOptions {
-  SimGripper gripper;  ///< closing_force_n is replaced by each command's force
+  core::Gripper gripper;  ///< closing_force_n is replaced by each command's force
   /// Workspace margins around the support's inner area in W: `workspace_margin_m` beyond its x/y
   /// edges, from `workspace_floor_m` below the support top up to `workspace_top_m` above it.
   double workspace_margin_m = 0.05;

@@ -184,7 +184,7 @@ TEST(DetectGraspsFge, PoseMatchesPixelAndHeight) {
     EXPECT_NEAR(rz, 0.0, 1e-12);
     EXPECT_GE(g.angle_rad, 0.0);
     EXPECT_LT(g.angle_rad, kPi);
-    EXPECT_DOUBLE_EQ(g.opening_m, Gripper{}.opening_stroke_mm / 1000);
+    EXPECT_DOUBLE_EQ(g.opening_m, Gripper{}.opening_stroke_m);
     EXPECT_GT(g.opening_px, g.finger_width_px);
   }
 }
@@ -455,7 +455,7 @@ TEST(DetectGraspsFge, RejectsBadParameters) {
   params.num_angles = 0;
   EXPECT_THROW(DetectGraspsFge(d.scene, d.synth.camera, Gripper{}, params), std::invalid_argument);
   Gripper gripper;
-  gripper.opening_stroke_mm = -1;
+  gripper.opening_stroke_m = -1;
   EXPECT_THROW(DetectGraspsFge(d.scene, d.synth.camera, gripper, FgeParams{}),
                std::invalid_argument);
 }

@@ -18,7 +18,7 @@ TEST(ConfigTest, JsonOverridesDefaults) {
   ASSERT_TRUE(c.ok()) << c.error().message;
   EXPECT_EQ(c.value().server.port, 9001);
   EXPECT_EQ(c.value().server.limits.max_body_bytes, 1000u);
-  EXPECT_EQ(c.value().default_gripper.opening_stroke_mm, 85.0);
+  EXPECT_DOUBLE_EQ(c.value().default_gripper.opening_stroke_m, 0.085);
   EXPECT_EQ(c.value().default_camera.fx, 600.0);
   EXPECT_EQ(c.value().fge.num_angles, 12);
   EXPECT_EQ(c.value().png_unit_m, 0.0001);

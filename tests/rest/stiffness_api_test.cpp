@@ -1,6 +1,7 @@
 // POST /v1/stiffness and the stiffness strategy of POST /v1/grasps, end to end: a real server
-// with the shipped pix2stiffness model, real sockets, a real depth frame. Expected values come
-// from calling the model and the planners directly on the same input.
+// with the shipped pix2stiffness model, real sockets, a real depth frame. Expected maps come from
+// calling the model directly on the same input, expected grasps from the planning engine the
+// handler is meant to call (and the evaluation tools call).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "service/core/fge.h"
 #include "service/core/fge_stiffness.h"
 #include "service/core/preprocess.h"
+#include "service/engine/engine.h"
 #include "service/io/depth_codec.h"
 #include "service/models/stiffness_model.h"
 #include "tests/rest/server_fixture.h"
@@ -63,6 +64,18 @@ const Expected& Direct() {
     return x;
   }();
   return e;
+}
+
+// The same frame planned by the engine with the shipped models.
+engine::Plan EnginePlan(engine::Strategy strategy, bool mean_stiffness = false) {
+  engine::PlanOptions options;
+  options.strategy = strategy;
+  options.mean_stiffness = mean_stiffness;
+  auto plan = engine::PlanGrasps(Direct().depth, Direct().camera, options,
+                                 {testing::ShippedStiffnessModel(),
+                                  testing::ShippedSegmentationModel()});
+  EXPECT_TRUE(plan.ok()) << plan.error().message;
+  return plan.ok() ? std::move(plan).value() : engine::Plan{};
 }
 
 class StiffnessApiTest : public ::testing::Test {
@@ -187,17 +200,19 @@ TEST_F(StiffnessApiTest, StiffnessIsTheDefaultStrategyAndMatchesThePlanner) {
   EXPECT_EQ(body["strategy"], "stiffness");
   EXPECT_EQ(body["stiffness_model"], "pix2stiffness");
   EXPECT_TRUE(body["timing_ms"]["stiffness"].is_number());
-  const auto expected = core::DetectGraspsStiffness(Direct().scene, Direct().camera, Direct().map,
-                                                    core::Gripper{}, core::StiffnessFgeParams{});
+  const engine::Plan plan = EnginePlan(engine::Strategy::kStiffness);
+  // The engine ran the model on the same scene: the map /v1/stiffness answers.
+  EXPECT_LE(cv::norm(plan.stiffness, Direct().map, cv::NORM_INF), 1e-6);
+  const auto& expected = plan.grasps;
   ASSERT_FALSE(expected.empty());
   ASSERT_EQ(body["grasps"].size(), expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
     SCOPED_TRACE(i);
     const json& g = body["grasps"][i];
-    EXPECT_DOUBLE_EQ(g["center_px"]["u"].get<double>(), expected[i].center_u_px);
-    EXPECT_DOUBLE_EQ(g["center_px"]["v"].get<double>(), expected[i].center_v_px);
-    EXPECT_DOUBLE_EQ(g["angle_rad"].get<double>(), expected[i].angle_rad);
-    EXPECT_NEAR(g["mean_stiffness"].get<double>(), expected[i].mean_stiffness, 1e-9);
+    EXPECT_DOUBLE_EQ(g["center_px"]["u"].get<double>(), expected[i].grasp.center_u_px);
+    EXPECT_DOUBLE_EQ(g["center_px"]["v"].get<double>(), expected[i].grasp.center_v_px);
+    EXPECT_DOUBLE_EQ(g["angle_rad"].get<double>(), expected[i].grasp.angle_rad);
+    EXPECT_NEAR(g["mean_stiffness"].get<double>(), expected[i].grasp.mean_stiffness, 1e-9);
   }
   // Best first: the top grasp is on the hard bar.
   EXPECT_GT(body["grasps"][0]["mean_stiffness"].get<double>(), 0.8);
@@ -219,11 +234,13 @@ TEST_F(StiffnessApiTest, ClassicStrategyRunsTheModelOnlyWhenMeanStiffnessIsAsked
   EXPECT_EQ(body["strategy"], "fge");
   EXPECT_TRUE(body["timing_ms"]["stiffness"].is_number());
   ASSERT_EQ(body["grasps"].size(), plain_body["grasps"].size());
-  const auto expected = core::DetectGraspsFge(Direct().scene, Direct().camera, core::Gripper{});
-  ASSERT_EQ(body["grasps"].size(), expected.size());
-  for (std::size_t i = 0; i < expected.size(); ++i) {
-    const double mean = core::ContactMeanStiffness(Direct().scene, Direct().map, expected[i]);
-    EXPECT_DOUBLE_EQ(body["grasps"][i]["score"].get<double>(), expected[i].score);
+  const engine::Plan plan = EnginePlan(engine::Strategy::kFge, /*mean_stiffness=*/true);
+  ASSERT_EQ(body["grasps"].size(), plan.grasps.size());
+  for (std::size_t i = 0; i < plan.grasps.size(); ++i) {
+    const core::Grasp& expected = plan.grasps[i].grasp;
+    // The mean over the grasp's contact surface, recomputed here from the model's map.
+    const double mean = core::ContactMeanStiffness(Direct().scene, Direct().map, expected);
+    EXPECT_DOUBLE_EQ(body["grasps"][i]["score"].get<double>(), expected.score);
     ASSERT_TRUE(std::isfinite(mean));
     EXPECT_NEAR(body["grasps"][i]["mean_stiffness"].get<double>(), mean, 1e-9);
   }
@@ -324,6 +341,47 @@ TEST(StiffnessModelConfigTest, DefaultIsTheShippedModelNextToTheExecutable) {
   EXPECT_EQ(DefaultStiffnessModel((prefix / "service" / "softgrasp-server").string()),
             (prefix / "models" / "pix2stiffness.pt").string());
   fs::remove_all(prefix);
+}
+
+// Every registered strategy: POST /v1/grasps answers exactly what the engine plans on the same
+// frame (the handler decodes, calls the engine and encodes; the evaluation tools call the same
+// engine, tests/models/train_cli_test.cpp).
+TEST(GraspsHandlerTest, EveryStrategyAnswersWhatTheEnginePlans) {
+  const RunningServer server({}, nullptr, nullptr, testing::ShippedStiffnessModel(),
+                             testing::ShippedSegmentationModel());
+  for (const engine::StrategyInfo& info : engine::Strategies()) {
+    SCOPED_TRACE(info.name);
+    const auto reply = server.Send(MultipartRequest(
+        "/v1/grasps", Upload({{"strategy", info.name, ""}, {"instances", "true", ""}})));
+    ASSERT_EQ(reply.status, 200) << reply.body;
+    const json body = json::parse(reply.body);
+    EXPECT_EQ(body["strategy"], info.name);
+    engine::PlanOptions options;
+    options.strategy = info.strategy;
+    options.report_instances = true;
+    auto plan = engine::PlanGrasps(
+        Direct().depth, Direct().camera, options,
+        {testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel()});
+    ASSERT_TRUE(plan.ok()) << plan.error().message;
+    const auto& expected = plan.value().grasps;
+    ASSERT_FALSE(expected.empty());
+    ASSERT_EQ(body["grasps"].size(), expected.size());
+    EXPECT_EQ(body["floor"]["d_m"].get<double>(), plan.value().scene.floor.d);
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      SCOPED_TRACE(i);
+      const json& g = body["grasps"][i];
+      const core::Grasp& e = expected[i].grasp;
+      EXPECT_EQ(g["center_px"]["u"].get<double>(), e.center_u_px);
+      EXPECT_EQ(g["center_px"]["v"].get<double>(), e.center_v_px);
+      EXPECT_EQ(g["angle_rad"].get<double>(), e.angle_rad);
+      EXPECT_EQ(g["score"].get<double>(), e.score);
+      EXPECT_EQ(g["opening_m"].get<double>(), e.opening_m);
+      ASSERT_TRUE(expected[i].instance_id.has_value());
+      EXPECT_EQ(g["instance_id"].get<int>(), *expected[i].instance_id);
+      EXPECT_EQ(g["deformability"].is_null(), !expected[i].deformability.has_value());
+    }
+    EXPECT_EQ(body.contains("target"), plan.value().target.has_value());
+  }
 }
 
 }  // namespace

@@ -11,8 +11,8 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
-#include "service/core/fge.h"
 #include "service/core/fge_stiffness.h"
+#include "service/engine/engine.h"
 #include "service/core/metrics.h"
 #include "service/core/preprocess.h"
 #include "service/models/dataset.h"
@@ -20,7 +20,6 @@
 #include "sim/dataset/scene_gen.h"
 #include "sim/grasp/execute.h"
 #include "sim/progress.h"
-#include "tools/train/bin_roi.h"
 #include "tools/train/bootstrap.h"
 
 namespace softgrasp::tools {
@@ -279,8 +278,8 @@ json CategoryErrorsJson(const std::map<std::string, CategoryError>& by_category)
 
 void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
              const Eigen::Isometry3d& world_from_camera, const std::vector<core::Grasp>& grasps,
-             const cv::Mat1f& truth, const cv::Mat1w& labels, int scene_index, bool per_grasp,
-             StrategyStats* stats) {
+             const core::Gripper& gripper, const cv::Mat1f& truth, const cv::Mat1w& labels,
+             int scene_index, bool per_grasp, StrategyStats* stats) {
   stats->scene_gt_stiffness.push_back(std::nan(""));
   stats->scene_deformation.push_back(std::nan(""));
   stats->scene_success.push_back(0.0);
@@ -301,7 +300,7 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
   ObjectOutcomes& on_object = stats->by_object[category];
   ++on_object.grasps;
   auto exec = sim::ExecuteGrasp(scene, raycaster, sim::SimGraspFromCamera(g, world_from_camera),
-                                sim::SimGripper{});
+                                gripper);
   if (!exec.ok()) {
     ++stats->outcomes["error"];
     return;
@@ -420,12 +419,12 @@ int RunEvaluate(std::vector<std::string> args) {
     const cv::Mat1f predicted_compared =
         compared ? compared->PredictScene(scene.value()) : cv::Mat1f();
     const cv::Mat1f constant_map(s.stiffness.size(), static_cast<float>(constant));
-    // Planners and the heuristic work inside the bin (a workspace ROI); the model sees it all.
+    // The heuristic works inside the bin (a workspace ROI); the model sees it all.
+    const bool bin = spec.value().support.kind == sim::Support::Kind::kBin;
+    const cv::Mat1b roi = bin ? sim::BinWorkspaceRoi(spec.value(), s.camera, 3) : cv::Mat1b();
     core::Scene in_bin = scene.value();
     in_bin.height_m = in_bin.height_m.clone();  // masked below; the models saw the whole view
-    if (spec.value().support.kind == sim::Support::Kind::kBin) {
-      in_bin.height_m.setTo(0.0f, BinRoi(spec.value(), s.camera, 3) == 0);
-    }
+    if (bin) in_bin.height_m.setTo(0.0f, roi == 0);
     const cv::Mat1f heuristic = HeuristicStiffness(in_bin, s.camera);
     if (compared) {
       rmse_compared.Add(core::StiffnessRmse255(s.stiffness, predicted_compared).value());
@@ -451,22 +450,30 @@ int RunEvaluate(std::vector<std::string> args) {
     auto raycaster = sim::SceneRaycaster::Build(g.scene);
     if (!raycaster.ok()) return Fail(raycaster.error().message);
     const Eigen::Isometry3d& world_from_camera = spec.value().render.world_from_camera;
-    const core::Gripper gripper;
-    Execute(g.scene, raycaster.value(), world_from_camera,
-            core::DetectGraspsFge(in_bin, s.camera, gripper), s.stiffness, s.labels, i, per_grasp,
-            &fge);
-    Execute(g.scene, raycaster.value(), world_from_camera,
-            core::DetectGraspsStiffness(in_bin, s.camera, predicted, gripper, stiffness_params),
-            s.stiffness, s.labels, i, per_grasp, &stiff);
-    Execute(g.scene, raycaster.value(), world_from_camera,
-            core::DetectGraspsStiffness(in_bin, s.camera, s.stiffness, gripper, stiffness_params),
-            s.stiffness, s.labels, i, per_grasp, &oracle);
-    if (compared) {
-      Execute(g.scene, raycaster.value(), world_from_camera,
-              core::DetectGraspsStiffness(in_bin, s.camera, predicted_compared, gripper,
-                                          stiffness_params),
-              s.stiffness, s.labels, i, per_grasp, &stiff_compared);
-    }
+    // The service's engine plans, with contacts inside the bin (the walls stay obstacles) and
+    // the maps already computed above; planning and execution share one gripper.
+    const engine::Models engine_models;  // none loaded: every map is given
+    engine::PlanOptions options;
+    options.region_of_interest = roi;
+    options.stiffness = stiffness_params;
+    const auto plan = [&](engine::Strategy strategy, const cv::Mat1f& map) {
+      options.strategy = strategy;
+      options.stiffness_map = map;
+      std::vector<core::Grasp> grasps;
+      auto planned = engine::PlanGrasps(s.depth, s.camera, options, engine_models);
+      if (planned.ok()) {
+        for (const engine::PlannedGrasp& p : planned.value().grasps) grasps.push_back(p.grasp);
+      }
+      return grasps;
+    };
+    const auto execute = [&](const std::vector<core::Grasp>& grasps, StrategyStats* stats) {
+      Execute(g.scene, raycaster.value(), world_from_camera, grasps, options.gripper, s.stiffness,
+              s.labels, i, per_grasp, stats);
+    };
+    execute(plan(engine::Strategy::kFge, cv::Mat1f()), &fge);
+    execute(plan(engine::Strategy::kStiffness, predicted), &stiff);
+    execute(plan(engine::Strategy::kStiffness, s.stiffness), &oracle);
+    if (compared) execute(plan(engine::Strategy::kStiffness, predicted_compared), &stiff_compared);
   }
   bar.Update(n);
   std::sort(predict_ms.begin(), predict_ms.end());

@@ -1,7 +1,6 @@
 #include "tools/train/evaluate_tasks.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <iostream>
@@ -11,10 +10,8 @@
 #include <optional>
 #include <string>
 
-#include "service/core/fge.h"
 #include "service/core/fge_deformability.h"
-#include "service/core/fge_stiffness.h"
-#include "service/core/preprocess.h"
+#include "service/engine/engine.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 #include "sim/dataset/scene_gen.h"
@@ -22,14 +19,12 @@
 #include "sim/progress.h"
 #include "sim/render/render.h"
 #include "tools/train/args.h"
-#include "tools/train/bin_roi.h"
 #include "tools/train/bootstrap.h"
 
 namespace softgrasp::tools {
 namespace {
 
 using nlohmann::json;
-using Clock = std::chrono::steady_clock;
 
 constexpr int kBootstrapResamples = 2000;
 constexpr std::uint64_t kBootstrapSeed = 1;
@@ -51,10 +46,6 @@ int Fail(const std::string& message) {
 }
 
 json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 enum class Task { kClutter, kBrushes, kObstacles };
 
@@ -96,49 +87,35 @@ sim::SceneSpec TaskSpec(Task task) {
 }
 
 struct Planner {
-  enum class Kind { kFge, kStiffness, kDeformability } kind;
+  engine::Strategy strategy;
   core::TargetPolicy policy = core::TargetPolicy::kHighest;
   std::string name;
 };
 
 std::vector<Planner> Planners(bool stiffness_model) {
-  std::vector<Planner> out = {{Planner::Kind::kFge, {}, "fge"}};
-  if (stiffness_model) out.push_back({Planner::Kind::kStiffness, {}, "stiffness"});
-  out.push_back({Planner::Kind::kDeformability, core::TargetPolicy::kHighest,
+  std::vector<Planner> out = {{engine::Strategy::kFge, {}, "fge"}};
+  if (stiffness_model) out.push_back({engine::Strategy::kStiffness, {}, "stiffness"});
+  out.push_back({engine::Strategy::kDeformability, core::TargetPolicy::kHighest,
                  "deformability_highest"});
-  out.push_back({Planner::Kind::kDeformability, core::TargetPolicy::kLeastDeformable,
+  out.push_back({engine::Strategy::kDeformability, core::TargetPolicy::kLeastDeformable,
                  "deformability_least_deformable"});
   return out;
 }
 
 struct Models {
-  const models::SegmentationModel* segmentation = nullptr;
-  const models::StiffnessModel* stiffness = nullptr;
-  core::DeformabilityParams deformability;  ///< the policy and target are set per planner
-};
-
-/// One gripper for planning (millimetres) and execution (metres), made from the same numbers.
-struct Grippers {
-  core::Gripper plan;
-  sim::SimGripper execute;
-  explicit Grippers(double stroke_mm) {
-    plan.opening_stroke_mm = stroke_mm;
-    execute.opening_stroke_m = plan.opening_stroke_mm * 1e-3;
-    execute.finger_width_m = plan.finger_width_mm * 1e-3;
-    execute.finger_thickness_m = plan.finger_thickness_mm * 1e-3;
-    execute.finger_length_m = plan.finger_length_mm * 1e-3;
-  }
+  engine::Models loaded;
+  core::DeformabilityParams deformability;  ///< the policy is set per planner
 };
 
 struct Plan {
   std::vector<core::Grasp> grasps;
-  double detect_ms = 0;       ///< preprocessing, the planner's models and the planner
+  double detect_ms = 0;       ///< the engine's whole call: preprocessing, models, planner
   bool target_found = true;   ///< a named target matched an instance (deformability)
 };
 
-/// The model instance a user would click to name the target: the one under the innermost pixel
-/// of the target's visible mask (farthest from its outline); 0 = none there.
-int ClickedInstance(const cv::Mat1w& labels, const cv::Mat1b& mask) {
+/// Where a user would click to name the target: the innermost pixel of its visible mask
+/// (farthest from its outline); none for an empty mask.
+std::optional<cv::Point> ClickedPixel(const cv::Mat1b& mask) {
   cv::Mat1f distance;
   cv::Mat1b padded;
   cv::copyMakeBorder(mask, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
@@ -146,55 +123,40 @@ int ClickedInstance(const cv::Mat1w& labels, const cv::Mat1b& mask) {
   cv::Point inside;
   double farthest = 0;
   cv::minMaxLoc(distance, nullptr, &farthest, nullptr, &inside);
-  if (!(farthest > 0)) return 0;
-  return labels(inside.y - 1, inside.x - 1);
+  if (!(farthest > 0)) return std::nullopt;
+  return cv::Point(inside.x - 1, inside.y - 1);
 }
 
-/// One planner's whole detection on one frame, timed. `target_mask` (may be empty): the named
-/// target's true visible pixels; FGE and stiffness then grasp only there, deformability takes
-/// the model instance a user would click (ClickedInstance).
+/// One planner's whole detection on one frame through the service's engine. Contacts inside the
+/// bin's `roi` only (the walls stay obstacles). `target_mask` (may be empty): the named target's
+/// true visible pixels; FGE and stiffness then grasp only there, deformability takes the
+/// instance a user would click (ClickedPixel).
 Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Camera& camera,
                 const cv::Mat1b& roi, const cv::Mat1b& target_mask, const Models& models,
                 const core::Gripper& gripper) {
-  const auto t0 = Clock::now();
   Plan out;
-  auto pre = core::Preprocess(depth, camera);
-  if (!pre.ok()) return out;
-  const core::Scene scene = std::move(pre).value();
-  // Contacts inside the bin only; the walls stay obstacles (the fingers must clear them).
-  core::Scene in_bin = scene;
-  core::RestrictContact(in_bin, roi, 0.0);
-  switch (p.kind) {
-    case Planner::Kind::kFge:
-      if (!target_mask.empty()) core::RestrictContact(in_bin, target_mask, 0.0);
-      out.grasps = core::DetectGraspsFge(in_bin, camera, gripper);
-      break;
-    case Planner::Kind::kStiffness: {
-      const cv::Mat1f stiffness = models.stiffness->PredictScene(scene);
-      if (!target_mask.empty()) core::RestrictContact(in_bin, target_mask, 0.0);
-      out.grasps = core::DetectGraspsStiffness(in_bin, camera, stiffness, gripper);
-      break;
-    }
-    case Planner::Kind::kDeformability: {
-      const models::SegmentationOutput seg = models.segmentation->SegmentScene(scene);
-      core::DeformabilityParams params = models.deformability;
-      params.policy = p.policy;
-      if (!target_mask.empty()) {
-        params.target_id = ClickedInstance(seg.instances.labels, target_mask);
-        if (params.target_id == 0) {
-          out.target_found = false;
-          break;
-        }
+  engine::PlanOptions options;
+  options.strategy = p.strategy;
+  options.gripper = gripper;
+  options.deformability = models.deformability;
+  options.deformability.policy = p.policy;
+  options.region_of_interest = roi;
+  if (!target_mask.empty()) {
+    if (engine::InfoOf(p.strategy).plans_target) {
+      options.target_px = ClickedPixel(target_mask);
+      if (!options.target_px) {
+        out.target_found = false;
+        return out;
       }
-      const auto planned = core::DetectGraspsDeformability(
-          in_bin, camera,
-          {seg.instances.labels, seg.instances.scores, seg.deformability, seg.foreground}, gripper,
-          params);
-      for (const auto& dg : planned.grasps) out.grasps.push_back(dg.grasp);
-      break;
+    } else {
+      options.region_of_interest = roi & target_mask;
     }
   }
-  out.detect_ms = MsSince(t0);
+  auto plan = engine::PlanGrasps(depth, camera, options, models.loaded);
+  if (!plan.ok()) return out;
+  out.target_found = !plan.value().target_not_found;
+  for (const engine::PlannedGrasp& g : plan.value().grasps) out.grasps.push_back(g.grasp);
+  out.detect_ms = plan.value().timing.total_ms;
   return out;
 }
 
@@ -309,7 +271,7 @@ std::string CategoryOf(const sim::SimScene& scene, int id) {
 /// Executes a plan's best grasp and records it.
 void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
             const Eigen::Isometry3d& world_from_camera, const Plan& plan, int target_id,
-            bool per_grasp, const sim::SimGripper& gripper, Stats* s) {
+            bool per_grasp, const core::Gripper& gripper, Stats* s) {
   s->detect_ms.push_back(plan.detect_ms);
   s->success.push_back(0.0);
   s->task.push_back(0.0);
@@ -444,14 +406,14 @@ struct ClearingStats {
 /// in a row; the camera re-renders the bin after every pick (picked objects leave; the others
 /// stay where they lay).
 void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
-              const Planner& planner, const Models& models, const Grippers& grippers,
+              const Planner& planner, const Models& models, const core::Gripper& gripper,
               int max_attempts, ClearingStats* stats) {
   sim::SimScene scene = generated.scene;
   const core::Camera& camera = spec.render.camera;
-  const cv::Mat1b roi = BinRoi(spec, camera, kBinMarginPx);
+  const cv::Mat1b roi = sim::BinWorkspaceRoi(spec, camera, kBinMarginPx);
   int clearable = 0;
   for (const auto& o : scene.objects) {
-    if (NarrowestWidthM(o) > grippers.execute.opening_stroke_m) {
+    if (NarrowestWidthM(o) > gripper.opening_stroke_m) {
       ++stats->too_wide;
     } else {
       ++clearable;
@@ -468,13 +430,13 @@ void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
     sim::RenderOptions render = spec.render;
     render.noise.seed = generated.scene_seed + static_cast<std::uint64_t>(attempt) * 7919u;
     const sim::RenderedViews views = sim::Render(raycaster.value(), render);
-    const Plan plan = RunPlanner(planner, views.depth, camera, roi, {}, models, grippers.plan);
+    const Plan plan = RunPlanner(planner, views.depth, camera, roi, {}, models, gripper);
     stats->detect_ms.push_back(plan.detect_ms);
     if (plan.grasps.empty()) break;  // nothing changes until something is picked
     ++stats->attempts;
     auto exec = sim::ExecuteGrasp(
         scene, raycaster.value(),
-        sim::SimGraspFromCamera(plan.grasps.front(), render.world_from_camera), grippers.execute);
+        sim::SimGraspFromCamera(plan.grasps.front(), render.world_from_camera), gripper);
     if (!exec.ok() || !exec.value().succeeded()) {
       ++failures;
       continue;
@@ -522,7 +484,8 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
   if (threads < 1) return Fail("--threads must be >= 1");
   if (stroke_mm < 10 || stroke_mm > 300) return Fail("--stroke-mm must be in 10..300");
   const bool per_grasp = args.Flag("--per-grasp");
-  const Grippers grippers(static_cast<double>(stroke_mm));
+  core::Gripper gripper;  // planning and execution: the same one
+  gripper.opening_stroke_m = stroke_mm * 1e-3;
   if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front());
   std::vector<Task> tasks;
   for (std::size_t start = 0; start <= tasks_text.size();) {
@@ -560,28 +523,30 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
 
   models::SetTorchThreads(static_cast<int>(threads));
   cv::setNumThreads(static_cast<int>(threads));
+  Models models{{}, deformability};
   auto segmentation = models::SegmentationModel::Load(segmentation_path);
   if (!segmentation.ok()) return Fail(segmentation.error().message);
-  std::optional<models::StiffnessModel> stiffness;
+  models.loaded.segmentation =
+      std::make_shared<const models::SegmentationModel>(std::move(segmentation).value());
   if (!stiffness_path.empty()) {
     auto loaded = models::StiffnessModel::Load(stiffness_path);
     if (!loaded.ok()) return Fail(loaded.error().message);
-    stiffness.emplace(std::move(loaded).value());
+    models.loaded.stiffness =
+        std::make_shared<const models::StiffnessModel>(std::move(loaded).value());
   }
-  const Models models{&segmentation.value(), stiffness ? &*stiffness : nullptr, deformability};
-  const std::vector<Planner> planners = Planners(stiffness.has_value());
+  const std::vector<Planner> planners = Planners(models.loaded.stiffness != nullptr);
 
   json out = {{"segmentation_model", segmentation_path},
               {"stiffness_model", stiffness_path.empty() ? json() : json(stiffness_path)},
               {"seed", seed},
               {"opening_fractions", models.deformability.opening_fractions},
               {"gripper",
-               {{"opening_stroke_mm", grippers.plan.opening_stroke_mm},
-                {"finger_width_mm", grippers.plan.finger_width_mm},
-                {"finger_thickness_mm", grippers.plan.finger_thickness_mm},
-                {"finger_length_mm", grippers.plan.finger_length_mm},
-                {"closing_force_n", grippers.execute.closing_force_n},
-                {"max_press_force_n", grippers.execute.max_press_force_n}}},
+               {{"opening_stroke_mm", gripper.opening_stroke_m * 1e3},
+                {"finger_width_mm", gripper.finger_width_m * 1e3},
+                {"finger_thickness_mm", gripper.finger_thickness_m * 1e3},
+                {"finger_length_mm", gripper.finger_length_m * 1e3},
+                {"closing_force_n", gripper.closing_force_n},
+                {"max_press_force_n", gripper.max_press_force_n}}},
               {"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}},
               {"tasks", json::object()}};
   for (const Task task : tasks) {
@@ -589,7 +554,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     const int wanted = static_cast<int>(task == Task::kClutter   ? clutter_scenes
                                         : task == Task::kBrushes ? brush_scenes
                                                                  : obstacle_scenes);
-    const cv::Mat1b roi = BinRoi(spec, spec.render.camera, kBinMarginPx);
+    const cv::Mat1b roi = sim::BinWorkspaceRoi(spec, spec.render.camera, kBinMarginPx);
     std::vector<Stats> stats(planners.size());
     int used = 0, skipped = 0;
     sim::ProgressBar bar(std::string(TaskName(task)) + " scenes", wanted);
@@ -615,9 +580,9 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
       if (!raycaster.ok()) return Fail(raycaster.error().message);
       for (std::size_t p = 0; p < planners.size(); ++p) {
         const Plan plan = RunPlanner(planners[p], g.views.depth, spec.render.camera, roi,
-                                     target_mask, models, grippers.plan);
+                                     target_mask, models, gripper);
         Record(task, g.scene, raycaster.value(), spec.render.world_from_camera, plan, target_id,
-               per_grasp, grippers.execute, &stats[p]);
+               per_grasp, gripper, &stats[p]);
       }
       ++used;
     }
@@ -640,7 +605,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
             spec, sim::SceneSeed(static_cast<std::uint64_t>(seed) + 77u, b, sim::ShapeSplit::kVal));
         if (!generated.ok()) return Fail(generated.error().message);
         for (std::size_t p = 0; p < planners.size(); ++p) {
-          ClearBin(generated.value(), spec, planners[p], models, grippers,
+          ClearBin(generated.value(), spec, planners[p], models, gripper,
                    static_cast<int>(max_attempts), &clearing[p]);
         }
       }

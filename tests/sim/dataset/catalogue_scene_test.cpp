@@ -93,7 +93,7 @@ TEST(CatalogueScene, BoxFaceCentreIsSofterThanNearItsEdges) {
 }
 
 TEST(CatalogueScene, SqueezingABottleBodyDeformsMoreThanItsCap) {
-  SimGripper gripper;
+  core::Gripper gripper;
   gripper.opening_stroke_m = 0.09;  // wide enough for every bottle body (35-70 mm)
   gripper.closing_force_n = 10.0;
   for (std::uint64_t seed : {1u, 2u, 3u}) {

@@ -121,7 +121,7 @@ SimGrasp GraspAt(double x_m, double y_m, double fingertip_height_m, double angle
 }
 
 GraspExecution Execute(const SimScene& scene, const SimGrasp& grasp,
-                       const SimGripper& gripper = SimGripper{}) {
+                       const core::Gripper& gripper = core::Gripper{}) {
   auto raycaster = SceneRaycaster::Build(scene);
   EXPECT_TRUE(raycaster.ok()) << (raycaster.ok() ? "" : raycaster.error().message);
   auto result = ExecuteGrasp(scene, raycaster.value(), grasp, gripper);
@@ -214,7 +214,7 @@ TEST(ExecuteGrasp, FingertipsRestingOnTheTableDoNotCollide) {
 
 TEST(ExecuteGrasp, SoftBodyDeformsMoreThanTheHardBand) {
   const SimScene scene = TableScene({Place(1, BandedBottle(0.3f), {0.0, 0.0, 0.05})});
-  SimGripper gripper;
+  core::Gripper gripper;
   gripper.closing_force_n = 2.0;
   // Fingers over 20..60 mm: the body only. Over 75..115 mm: the band carries the load.
   const GraspExecution body = Execute(scene, GraspAt(0.0, 0.0, 0.02), gripper);
@@ -235,7 +235,7 @@ TEST(ExecuteGrasp, SoftBodyDeformsMoreThanTheHardBand) {
 
 TEST(ExecuteGrasp, SoftBodyUnderAStrongSqueezeIsDamaged) {
   const SimScene scene = TableScene({Place(1, BandedBottle(0.4f), {0.0, 0.0, 0.05})});
-  SimGripper gripper;
+  core::Gripper gripper;
   gripper.closing_force_n = 20.0;
   const GraspExecution e = Execute(scene, GraspAt(0.0, 0.0, 0.02), gripper);
   ASSERT_TRUE(e.succeeded()) << e.reason;
@@ -247,7 +247,7 @@ TEST(ExecuteGrasp, SoftBodyUnderAStrongSqueezeIsDamaged) {
 
 TEST(ExecuteGrasp, SqueezeStopsAtHalfTheContactWidth) {
   const SimScene scene = TableScene({Place(1, BandedBottle(0.1f), {0.0, 0.0, 0.05})});
-  SimGripper gripper;
+  core::Gripper gripper;
   gripper.closing_force_n = 20.0;  // 100 mm per finger uncapped
   const GraspExecution e = Execute(scene, GraspAt(0.0, 0.0, 0.02), gripper);
   ASSERT_TRUE(e.succeeded()) << e.reason;
@@ -339,7 +339,7 @@ TEST(ExecuteGrasp, TwoTouchingBlocksAreMultipleObjects) {
 // ---- Lift. ----
 
 TEST(ExecuteGrasp, HeavyObjectWithLowFrictionSlipsAndALighterOneIsHeld) {
-  SimGripper gripper;
+  core::Gripper gripper;
   gripper.friction_coefficient = 0.2;  // 2 * 0.2 * 10 N = 4 N of friction
   const SimScene heavy = TableScene({Place(1, Box(kBlockSize, 1.0f, 2.0), {0.0, 0.0, 0.025})});
   const GraspExecution slipped = Execute(heavy, GraspAt(0.0, 0.0, 0.02), gripper);
@@ -370,7 +370,7 @@ TEST(ExecuteGrasp, SlopedContactsOutsideTheFrictionConeSlip) {
   // First contact on the lowest face row, 0.1 mm above the fingertips: half-width 14.9 mm.
   EXPECT_NEAR(slipped.contact_width_m, 2.0 * 0.0149, 0.0002);
 
-  SimGripper grippy;
+  core::Gripper grippy;
   grippy.friction_coefficient = 1.2;
   EXPECT_TRUE(Execute(scene, grasp, grippy).succeeded());
 
@@ -438,7 +438,7 @@ TEST(SimGraspFromCamera, CameraGraspExecutesOnTheBlockBelow) {
 TEST(ExecuteAndRemove, RemovesExactlyTheHeldObjectOnSuccess) {
   SimScene scene = TableScene({Place(1, Box(kBlockSize, 1.0f, 0.1), {-0.08, 0.0, 0.025}),
                                Place(2, Box(kBlockSize, 1.0f, 0.1), {0.08, 0.0, 0.025})});
-  auto first = ExecuteAndRemove(&scene, GraspAt(0.08, 0.0, 0.02), SimGripper{});
+  auto first = ExecuteAndRemove(&scene, GraspAt(0.08, 0.0, 0.02), core::Gripper{});
   ASSERT_TRUE(first.ok()) << first.error().message;
   ASSERT_TRUE(first.value().succeeded()) << first.value().reason;
   EXPECT_EQ(first.value().instance_id, 2);
@@ -446,33 +446,33 @@ TEST(ExecuteAndRemove, RemovesExactlyTheHeldObjectOnSuccess) {
   EXPECT_EQ(scene.objects[0].instance_id, 1);
 
   // The same grasp again closes on nothing, and nothing is removed.
-  auto again = ExecuteAndRemove(&scene, GraspAt(0.08, 0.0, 0.02), SimGripper{});
+  auto again = ExecuteAndRemove(&scene, GraspAt(0.08, 0.0, 0.02), core::Gripper{});
   ASSERT_TRUE(again.ok());
   EXPECT_EQ(again.value().outcome, GraspOutcome::kEmpty);
   EXPECT_EQ(scene.objects.size(), 1u);
 
   // A collision removes nothing either.
-  auto collided = ExecuteAndRemove(&scene, GraspAt(-0.08, 0.0, -0.01), SimGripper{});
+  auto collided = ExecuteAndRemove(&scene, GraspAt(-0.08, 0.0, -0.01), core::Gripper{});
   ASSERT_TRUE(collided.ok());
   EXPECT_EQ(collided.value().outcome, GraspOutcome::kCollision);
   EXPECT_EQ(scene.objects.size(), 1u);
 
   // The last one clears the table.
-  auto last = ExecuteAndRemove(&scene, GraspAt(-0.08, 0.0, 0.02), SimGripper{});
+  auto last = ExecuteAndRemove(&scene, GraspAt(-0.08, 0.0, 0.02), core::Gripper{});
   ASSERT_TRUE(last.ok());
   EXPECT_TRUE(last.value().succeeded()) << last.value().reason;
   EXPECT_TRUE(scene.objects.empty());
 }
 
 TEST(ExecuteAndRemove, RejectsANullSceneAndAnUnbuildableOne) {
-  auto null_scene = ExecuteAndRemove(nullptr, GraspAt(0.0, 0.0, 0.02), SimGripper{});
+  auto null_scene = ExecuteAndRemove(nullptr, GraspAt(0.0, 0.0, 0.02), core::Gripper{});
   ASSERT_FALSE(null_scene.ok());
   EXPECT_EQ(null_scene.error().code, core::ErrorCode::kInvalidArgument);
 
   auto broken = std::make_shared<SimObject>(*Box(kBlockSize, 1.0f, 0.1));
   broken->vertex_stiffness.pop_back();
   SimScene scene = TableScene({Place(1, broken, {0.0, 0.0, 0.025})});
-  auto result = ExecuteAndRemove(&scene, GraspAt(0.0, 0.0, 0.02), SimGripper{});
+  auto result = ExecuteAndRemove(&scene, GraspAt(0.0, 0.0, 0.02), core::Gripper{});
   ASSERT_FALSE(result.ok());
   EXPECT_EQ(result.error().code, core::ErrorCode::kInvalidArgument);
   EXPECT_EQ(scene.objects.size(), 1u);
@@ -486,7 +486,7 @@ TEST(ExecuteGrasp, RejectsBadGraspsAndGrippers) {
   ASSERT_TRUE(raycaster.ok());
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  auto expect_invalid = [&](const SimGrasp& g, const SimGripper& p, const char* field) {
+  auto expect_invalid = [&](const SimGrasp& g, const core::Gripper& p, const char* field) {
     auto result = ExecuteGrasp(scene, raycaster.value(), g, p);
     ASSERT_FALSE(result.ok()) << field;
     EXPECT_EQ(result.error().code, core::ErrorCode::kInvalidArgument) << field;
@@ -494,7 +494,7 @@ TEST(ExecuteGrasp, RejectsBadGraspsAndGrippers) {
     EXPECT_FALSE(result.error().message.empty());
   };
   const SimGrasp ok_grasp = GraspAt(0.0, 0.0, 0.02);
-  const SimGripper ok_gripper;
+  const core::Gripper ok_gripper;
   {
     SimGrasp g = ok_grasp;
     g.center_x_m = nan;
@@ -517,7 +517,7 @@ TEST(ExecuteGrasp, RejectsBadGraspsAndGrippers) {
     expect_invalid(g, ok_gripper, "opening_m");
   }
   {
-    SimGripper p = ok_gripper;
+    core::Gripper p = ok_gripper;
     p.finger_width_m = 0.0;
     expect_invalid(ok_grasp, p, "finger_width_m");
     p = ok_gripper;

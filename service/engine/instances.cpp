@@ -1,4 +1,4 @@
-#include "service/rest/segmentation_request.h"
+#include "service/engine/instances.h"
 
 #include <algorithm>
 #include <chrono>
@@ -7,7 +7,7 @@
 
 #include "service/segmentation/pcl_segmenter.h"
 
-namespace softgrasp::rest {
+namespace softgrasp::engine {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -82,19 +82,16 @@ bool HasInstance(const cv::Mat1w& labels, int id) {
   return id > 0 && !labels.empty() && cv::countNonZero(labels == id) > 0;
 }
 
-core::Result<GraspInstances> InstancesForGrasps(const GraspRequest& request,
-                                                const core::Scene& scene,
-                                                const core::Camera& camera,
-                                                const models::SegmentationModel* model) {
-  GraspInstances out;
-  const bool need_deformability = request.strategy == GraspStrategy::kDeformability ||
-                                  request.overlay == OverlayBackground::kDeformability;
+core::Result<Instances> InstancesForPlan(const InstanceRequest& request, const core::Scene& scene,
+                                         const core::Camera& camera,
+                                         const models::SegmentationModel* model) {
+  Instances out;
+  const bool need_deformability = request.need_deformability;
   const auto start = Clock::now();
-  if (!request.instance_labels.empty()) {
-    out.labels = request.instance_labels;
+  if (!request.labels.empty()) {
+    out.labels = request.labels;
   } else {
-    auto method =
-        ResolveSegmentationMethod(request.segmentation_method, model != nullptr, "segmentation");
+    auto method = ResolveSegmentationMethod(request.method, model != nullptr, "segmentation");
     if (!method.ok()) return method.error();
     auto segmented = SegmentInstances(scene, camera, method.value(), model);
     if (!segmented.ok()) return segmented.error();
@@ -153,4 +150,4 @@ core::Result<GraspInstances> InstancesForGrasps(const GraspRequest& request,
   return out;
 }
 
-}  // namespace softgrasp::rest
+}  // namespace softgrasp::engine

@@ -1,7 +1,7 @@
 #pragma once
-/// Object instances for the REST layer (POST /v1/segmentation and the instance options of
-/// POST /v1/grasps): which segmenter serves a request, running it on a preprocessed scene, and
-/// describing the instances. No HTTP here; the handlers in api.cpp decode, call and encode.
+/// Object instances for the engine (segmentation answers and the instance options of grasp
+/// planning): which segmenter serves a request, running it on a preprocessed scene, and
+/// describing the instances.
 
 #include <memory>
 #include <optional>
@@ -14,10 +14,9 @@
 #include "service/core/status.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
-#include "service/rest/depth_request.h"
 #include "service/segmentation/instances.h"
 
-namespace softgrasp::rest {
+namespace softgrasp::engine {
 
 using SegmentationModelPtr = std::shared_ptr<const models::SegmentationModel>;
 
@@ -53,10 +52,9 @@ std::vector<segmentation::InstanceInfo> DescribeSceneInstances(
     const SceneInstances& instances, const core::Scene& scene, const core::Camera& camera,
     const models::StiffnessModel* stiffness_model, double* stiffness_ms = nullptr);
 
-/// The instances a POST /v1/grasps request works with: its labels part as given, or a fresh
-/// segmentation of the scene (method: the request's "segmentation" field, else the model when
-/// loaded, else pcl).
-struct GraspInstances {
+/// The instances a grasp plan works with: labels as the caller gave them, or a fresh
+/// segmentation of the scene.
+struct Instances {
   cv::Mat1w labels;
   const char* source = "labels";  ///< "labels" (the client's), "model" or "pcl"
   int count = 0;                  ///< instances with at least one pixel
@@ -70,14 +68,23 @@ struct GraspInstances {
   double milliseconds = 0;  ///< segmenting and describing (0 for labels given)
 };
 
-/// The model's deformability map is also computed (for labels given, or a pcl segmentation) when
-/// the request's strategy or overlay needs it. Errors: ResolveSegmentationMethod's (field
-/// "segmentation"), SegmentInstances', and kUnprocessable (field "target") when the request's
-/// target is not an id of the segmentation.
-core::Result<GraspInstances> InstancesForGrasps(const GraspRequest& request,
-                                                const core::Scene& scene,
-                                                const core::Camera& camera,
-                                                const models::SegmentationModel* model);
+/// What a plan asks of its instances.
+struct InstanceRequest {
+  cv::Mat1w labels;  ///< given by the caller (0 = no object); empty = segment the scene
+  /// The segmenter when one has to run; unset: the model when loaded, else pcl.
+  std::optional<segmentation::Method> method;
+  /// Compute the model's deformability map also for labels given or a pcl segmentation.
+  bool need_deformability = false;
+  int target_id = 0;  ///< > 0: must be an id of the segmentation
+};
+
+/// Labels given, or `request.method` run on the scene. Errors: ResolveSegmentationMethod's
+/// (field "segmentation"), SegmentInstances', kUnavailable (field "strategy") when the
+/// deformability map is needed and no model is loaded, and kUnprocessable (field "target") when
+/// the target is not an id of the segmentation.
+core::Result<Instances> InstancesForPlan(const InstanceRequest& request, const core::Scene& scene,
+                                         const core::Camera& camera,
+                                         const models::SegmentationModel* model);
 
 /// The instance id under pixel (u, v) (rounded, clamped into the image), 0 = none.
 int InstanceAt(const cv::Mat1w& labels, double u_px, double v_px);
@@ -85,4 +92,4 @@ int InstanceAt(const cv::Mat1w& labels, double u_px, double v_px);
 /// Whether `id` (> 0) labels at least one pixel.
 bool HasInstance(const cv::Mat1w& labels, int id);
 
-}  // namespace softgrasp::rest
+}  // namespace softgrasp::engine

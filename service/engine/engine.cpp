@@ -1,0 +1,278 @@
+#include "service/engine/engine.h"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "service/core/fge_stiffness.h"
+
+namespace softgrasp::engine {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MillisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+/// What a planner works with: the restricted scene, the maps, the instances and the target.
+struct PlanContext {
+  const core::Scene& scene;
+  const core::Camera& camera;
+  const PlanOptions& options;
+  const cv::Mat1f& stiffness;      ///< empty unless needed or wanted
+  const Instances* instances;      ///< null unless needed or asked for
+  int target_id;                   ///< > 0: the requested target
+};
+
+void PlanFge(const PlanContext& c, Plan* plan) {
+  for (const core::Grasp& g :
+       core::DetectGraspsFge(c.scene, c.camera, c.options.gripper, c.options.fge)) {
+    PlannedGrasp p;
+    p.grasp = g;
+    if (!c.stiffness.empty()) {
+      p.grasp.mean_stiffness = core::ContactMeanStiffness(c.scene, c.stiffness, g);
+    }
+    plan->grasps.push_back(std::move(p));
+  }
+}
+
+void PlanStiffness(const PlanContext& c, Plan* plan) {
+  core::StiffnessFgeParams params = c.options.stiffness;
+  params.fge = c.options.fge;
+  for (const core::Grasp& g :
+       core::DetectGraspsStiffness(c.scene, c.camera, c.stiffness, c.options.gripper, params)) {
+    PlannedGrasp p;
+    p.grasp = g;
+    plan->grasps.push_back(std::move(p));
+  }
+}
+
+void PlanDeformability(const PlanContext& c, Plan* plan) {
+  core::DeformabilityParams params = c.options.deformability;
+  params.fge = c.options.fge;
+  params.target_id = c.target_id;
+  const Instances& in = *c.instances;
+  const core::DeformabilityResult planned = core::DetectGraspsDeformability(
+      c.scene, c.camera, {in.labels, in.scores, in.deformability, in.foreground},
+      c.options.gripper, params);
+  for (const core::DeformabilityGrasp& dg : planned.grasps) {
+    PlannedGrasp p;
+    p.grasp = dg.grasp;
+    p.instance_id = dg.instance_id;
+    p.deformability = DeformabilityRecord{
+        params.policy,
+        planned.fallback ? "fallback" : (c.target_id > 0 ? "request" : "policy"),
+        dg.opening_fraction,
+        dg.mean_deformability,
+        dg.pressed_ids,
+        dg.press_depth_m};
+    plan->grasps.push_back(std::move(p));
+  }
+  plan->target = TargetChoice{planned.target_id, params.policy, planned.tried_ids,
+                              planned.fallback};
+}
+
+using Planner = void (*)(const PlanContext&, Plan*);
+
+struct Registered {
+  StrategyInfo info;
+  Planner plan;
+};
+
+// The one place strategies are registered, in order of preference (the default strategy is the
+// last one the loaded models serve).
+const std::vector<Registered>& Registry() {
+  static const std::vector<Registered> registry = {
+      {{Strategy::kFge, "fge", false, false, false}, &PlanFge},
+      {{Strategy::kStiffness, "stiffness", true, false, false}, &PlanStiffness},
+      {{Strategy::kDeformability, "deformability", false, true, true}, &PlanDeformability},
+  };
+  return registry;
+}
+
+const Registered& Find(Strategy strategy) {
+  for (const Registered& r : Registry()) {
+    if (r.info.strategy == strategy) return r;
+  }
+  throw std::invalid_argument("engine: unregistered strategy " +
+                              std::to_string(static_cast<int>(strategy)));
+}
+
+// "'fge', 'stiffness' or 'deformability'"
+std::string QuotedList(const std::vector<Strategy>& strategies) {
+  std::string out;
+  for (std::size_t i = 0; i < strategies.size(); ++i) {
+    if (i > 0) out += i + 1 == strategies.size() ? " or " : ", ";
+    out += std::string("'") + StrategyName(strategies[i]) + "'";
+  }
+  return out;
+}
+
+core::Error Missing(const Models& models, Strategy strategy) {
+  const StrategyInfo& info = InfoOf(strategy);
+  const char* missing = info.needs_segmentation_model && !models.segmentation
+                            ? "a segmentation model and none is loaded (start the server with "
+                              "--segmentation-model)"
+                            : "a stiffness model and none is loaded (start the server with "
+                              "--stiffness-model)";
+  return core::MakeError(core::ErrorCode::kInvalidArgument,
+                         std::string("strategy '") + info.name + "' needs " + missing +
+                             "; use strategy " + QuotedList(ServedStrategies(models)),
+                         "strategy");
+}
+
+core::Error Invalid(const std::string& message, const std::string& field) {
+  return core::MakeError(core::ErrorCode::kInvalidArgument, message, field);
+}
+
+std::string SizeText(const cv::Size& size) {
+  return std::to_string(size.width) + "x" + std::to_string(size.height);
+}
+
+}  // namespace
+
+const std::vector<StrategyInfo>& Strategies() {
+  static const std::vector<StrategyInfo> infos = [] {
+    std::vector<StrategyInfo> out;
+    for (const Registered& r : Registry()) out.push_back(r.info);
+    return out;
+  }();
+  return infos;
+}
+
+const StrategyInfo& InfoOf(Strategy strategy) { return Find(strategy).info; }
+
+const char* StrategyName(Strategy strategy) { return InfoOf(strategy).name; }
+
+std::optional<Strategy> StrategyByName(std::string_view name) {
+  for (const StrategyInfo& info : Strategies()) {
+    if (name == info.name) return info.strategy;
+  }
+  return std::nullopt;
+}
+
+bool Serves(const Models& models, Strategy strategy) {
+  const StrategyInfo& info = InfoOf(strategy);
+  return (!info.needs_stiffness_model || models.stiffness) &&
+         (!info.needs_segmentation_model || models.segmentation);
+}
+
+std::optional<core::Error> Unserved(const Models& models, Strategy strategy) {
+  if (Serves(models, strategy)) return std::nullopt;
+  return Missing(models, strategy);
+}
+
+Strategy DefaultStrategy(const Models& models) { return ServedStrategies(models).back(); }
+
+std::vector<Strategy> ServedStrategies(const Models& models) {
+  std::vector<Strategy> out;
+  for (const StrategyInfo& info : Strategies()) {
+    if (Serves(models, info.strategy)) out.push_back(info.strategy);
+  }
+  return out;
+}
+
+core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera& camera,
+                              const PlanOptions& options, const Models& models) {
+  const auto start = Clock::now();
+  const Registered& strategy = Find(options.strategy);
+  const StrategyInfo& info = strategy.info;
+  const bool given_map = !options.stiffness_map.empty();
+  // A given stiffness map stands in for the stiffness model.
+  if ((info.needs_stiffness_model && !given_map && !models.stiffness) ||
+      (info.needs_segmentation_model && !models.segmentation)) {
+    return Missing(models, options.strategy);
+  }
+  // Strategies without a map of their own report the stiffness model's mean on request.
+  const bool own_map = info.needs_stiffness_model || info.needs_segmentation_model;
+  const bool mean_stiffness = options.mean_stiffness && !own_map;
+  if (!given_map && !models.stiffness && (mean_stiffness || options.want_stiffness_map)) {
+    return Invalid("the stiffness map needs a stiffness model and none is loaded",
+                   mean_stiffness ? "mean_stiffness" : "overlay");
+  }
+  const cv::Size image(depth.width(), depth.height());
+  if (!options.region_of_interest.empty() && options.region_of_interest.size() != image) {
+    return core::MakeError(core::ErrorCode::kUnprocessable,
+                           "segmask is " + SizeText(options.region_of_interest.size()) +
+                               " but the depth image is " + SizeText(image),
+                           "segmask");
+  }
+  if (given_map && options.stiffness_map.size() != image) {
+    return Invalid("the stiffness map is " + SizeText(options.stiffness_map.size()) +
+                       " but the depth image is " + SizeText(image),
+                   "stiffness_map");
+  }
+  if (!(std::isfinite(options.min_depth_m) && options.min_depth_m >= 0)) {
+    return Invalid("min_depth_m must be finite and >= 0", "min_depth_m");
+  }
+
+  Plan plan;
+  const auto preprocess_start = Clock::now();
+  auto preprocessed = core::Preprocess(depth, camera);
+  if (!preprocessed.ok()) return preprocessed.error();
+  plan.scene = std::move(preprocessed).value();
+  core::RestrictContact(plan.scene, options.region_of_interest, options.min_depth_m);
+  plan.timing.preprocess_ms = MillisecondsSince(preprocess_start);
+
+  // Instances only when something uses them: segmenting is not free.
+  const bool wants_target = options.target_id > 0 || options.target_px.has_value();
+  if (options.report_instances || wants_target || info.needs_segmentation_model ||
+      options.want_deformability_map) {
+    InstanceRequest request = options.instances;
+    request.need_deformability = info.needs_segmentation_model || options.want_deformability_map;
+    request.target_id = options.target_id;
+    auto found = InstancesForPlan(request, plan.scene, camera, models.segmentation.get());
+    if (!found.ok()) return found.error();
+    plan.instances = std::move(found).value();
+    plan.timing.segmentation_ms = plan.instances->milliseconds;
+  }
+  int target_id = options.target_id;
+  if (options.target_px) {
+    target_id = InstanceAt(plan.instances->labels, options.target_px->x, options.target_px->y);
+    plan.target_not_found = target_id == 0;
+  }
+  if (target_id > 0 && !info.plans_target) {
+    // Contacts on the target only; every other object stays an obstacle.
+    core::RestrictContact(plan.scene, plan.instances->labels == target_id, options.min_depth_m);
+  }
+
+  const auto stiffness_start = Clock::now();
+  if (given_map) {
+    plan.stiffness = options.stiffness_map;
+  } else if (info.needs_stiffness_model || options.want_stiffness_map || mean_stiffness) {
+    plan.stiffness = models.stiffness->PredictScene(plan.scene);
+    plan.timing.stiffness_ran = true;
+    plan.timing.stiffness_ms = MillisecondsSince(stiffness_start);
+  }
+
+  if (options.plan && !plan.target_not_found) {
+    const auto detect_start = Clock::now();
+    const PlanContext context{plan.scene,     camera,
+                              options,        plan.stiffness,
+                              plan.instances ? &*plan.instances : nullptr, target_id};
+    try {
+      strategy.plan(context, &plan);
+    } catch (const std::invalid_argument& e) {
+      // Options the planner refuses (e.g. a slice step longer than the fingers).
+      return Invalid(e.what(), "options");
+    }
+    if (plan.instances) {
+      const Instances& in = *plan.instances;
+      for (PlannedGrasp& g : plan.grasps) {
+        if (!g.instance_id) g.instance_id = InstanceAt(in.labels, g.grasp.center_u_px, g.grasp.center_v_px);
+        const auto id = static_cast<std::size_t>(*g.instance_id);
+        if (id > 0 && id < in.mean_deformability.size() && in.mean_deformability[id] &&
+            std::isfinite(*in.mean_deformability[id])) {
+          g.instance_deformability = in.mean_deformability[id];
+        }
+      }
+    }
+    plan.timing.detect_ms = MillisecondsSince(detect_start);
+  }
+  plan.timing.total_ms = MillisecondsSince(start);
+  return plan;
+}
+
+}  // namespace softgrasp::engine

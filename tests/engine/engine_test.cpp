@@ -1,0 +1,250 @@
+// The planning engine on analytic scenes: the strategy registry, what each option computes,
+// given maps and labels, targets, contact regions, and the errors callers can cause.
+#include "service/engine/engine.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <set>
+#include <string>
+
+#include "service/core/fge.h"
+#include "service/core/fge_stiffness.h"
+#include "tests/support/synthetic_scene.h"
+
+namespace softgrasp::engine {
+namespace {
+
+using testing::Box;
+using testing::RenderScene;
+using testing::SceneSpec;
+
+// Two 30 x 80 x 40 mm boxes 160 mm apart: ids 1 (left) and 2 (right).
+struct TwoBoxes {
+  SceneSpec spec;
+  testing::SyntheticScene synth;
+  cv::Mat1w labels;  ///< the boxes' ids, 0 on the table
+};
+
+const TwoBoxes& Scene() {
+  static const TwoBoxes s = [] {
+    TwoBoxes t;
+    t.spec.boxes = {Box{-0.08, 0.0, 0.03, 0.08, 0.04, 0.0, 1},
+                    Box{0.08, 0.0, 0.03, 0.08, 0.04, 0.0, 2}};
+    t.synth = RenderScene(t.spec);
+    t.labels = cv::Mat1w(t.synth.object_id.size(), 0);
+    for (int v = 0; v < t.labels.rows; ++v) {
+      for (int u = 0; u < t.labels.cols; ++u) {
+        const int id = t.synth.object_id(v, u);
+        if (id > 0) t.labels(v, u) = static_cast<std::uint16_t>(id);
+      }
+    }
+    return t;
+  }();
+  return s;
+}
+
+int BoxAt(const core::Grasp& g) {
+  return Scene().synth.object_id(static_cast<int>(std::lround(g.center_v_px)),
+                                 static_cast<int>(std::lround(g.center_u_px)));
+}
+
+// A stiffness map: `left` on box 1, `right` on box 2, 0 on the table.
+cv::Mat1f MapOf(float left, float right) {
+  cv::Mat1f map(Scene().labels.size(), 0.0f);
+  map.setTo(left, Scene().labels == 1);
+  map.setTo(right, Scene().labels == 2);
+  return map;
+}
+
+Plan MustPlan(const PlanOptions& options, const Models& models = {}) {
+  auto plan = PlanGrasps(Scene().synth.depth, Scene().synth.camera, options, models);
+  EXPECT_TRUE(plan.ok()) << plan.error().message;
+  return plan.ok() ? std::move(plan).value() : Plan{};
+}
+
+std::shared_ptr<const models::StiffnessModel> ShippedStiffness() {
+  static const auto model = [] {
+    auto loaded =
+        models::StiffnessModel::Load(std::string(SOFTGRASP_SOURCE_DIR) + "/models/pix2stiffness.pt");
+    if (!loaded.ok()) throw std::runtime_error(loaded.error().message);
+    return std::make_shared<const models::StiffnessModel>(std::move(loaded).value());
+  }();
+  return model;
+}
+
+TEST(Strategies, AreRegisteredOnceByNameInOrderOfPreference) {
+  std::set<std::string> names;
+  for (const StrategyInfo& info : Strategies()) {
+    EXPECT_TRUE(names.insert(info.name).second) << info.name;
+    EXPECT_EQ(StrategyByName(info.name), info.strategy);
+    EXPECT_STREQ(StrategyName(info.strategy), info.name);
+  }
+  EXPECT_FALSE(StrategyByName("gqcnn").has_value());
+  EXPECT_FALSE(StrategyByName("").has_value());
+  EXPECT_EQ(Strategies().front().strategy, Strategy::kFge);  // needs no model: always served
+}
+
+TEST(Strategies, TheDefaultIsTheLastOneTheLoadedModelsServe) {
+  EXPECT_EQ(DefaultStrategy({}), Strategy::kFge);
+  EXPECT_EQ(ServedStrategies({}), std::vector<Strategy>{Strategy::kFge});
+  const Models stiffness{ShippedStiffness(), nullptr};
+  EXPECT_EQ(DefaultStrategy(stiffness), Strategy::kStiffness);
+  EXPECT_TRUE(Serves(stiffness, Strategy::kStiffness));
+  EXPECT_FALSE(Serves(stiffness, Strategy::kDeformability));
+  const auto why = Unserved(stiffness, Strategy::kDeformability);
+  ASSERT_TRUE(why.has_value());
+  EXPECT_EQ(why->code, core::ErrorCode::kInvalidArgument);
+  EXPECT_EQ(why->field, "strategy");
+  EXPECT_NE(why->message.find("segmentation model"), std::string::npos) << why->message;
+  EXPECT_NE(why->message.find("'fge' or 'stiffness'"), std::string::npos) << why->message;
+  EXPECT_FALSE(Unserved(stiffness, Strategy::kFge).has_value());
+}
+
+TEST(PlanGrasps, FgeIsTheCorePlannerOnThePreprocessedScene) {
+  const Plan plan = MustPlan({});
+  auto scene = core::Preprocess(Scene().synth.depth, Scene().synth.camera);
+  ASSERT_TRUE(scene.ok());
+  const auto expected = core::DetectGraspsFge(scene.value(), Scene().synth.camera, {});
+  ASSERT_FALSE(expected.empty());
+  ASSERT_EQ(plan.grasps.size(), expected.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(plan.grasps[i].grasp.center_u_px, expected[i].center_u_px);
+    EXPECT_EQ(plan.grasps[i].grasp.angle_rad, expected[i].angle_rad);
+    EXPECT_EQ(plan.grasps[i].grasp.score, expected[i].score);
+    EXPECT_TRUE(std::isnan(plan.grasps[i].grasp.mean_stiffness));
+    EXPECT_FALSE(plan.grasps[i].instance_id.has_value());
+    EXPECT_FALSE(plan.grasps[i].deformability.has_value());
+  }
+  EXPECT_EQ(plan.scene.floor.d, scene.value().floor.d);
+  EXPECT_TRUE(plan.stiffness.empty());
+  EXPECT_FALSE(plan.instances.has_value());
+  EXPECT_FALSE(plan.target.has_value());
+  EXPECT_FALSE(plan.timing.stiffness_ran);
+  EXPECT_GT(plan.timing.detect_ms, 0.0);
+  EXPECT_GE(plan.timing.total_ms, plan.timing.preprocess_ms + plan.timing.detect_ms);
+}
+
+TEST(PlanGrasps, AGivenStiffnessMapStandsInForTheModel) {
+  PlanOptions options;
+  options.strategy = Strategy::kStiffness;
+  options.stiffness_map = MapOf(0.2f, 0.9f);
+  const Plan plan = MustPlan(options);  // no model loaded
+  ASSERT_FALSE(plan.grasps.empty());
+  EXPECT_EQ(BoxAt(plan.grasps.front().grasp), 2);
+  EXPECT_NEAR(plan.grasps.front().grasp.mean_stiffness, 0.9, 1e-5);
+  EXPECT_FALSE(plan.timing.stiffness_ran);
+  // The other way round, the other box.
+  options.stiffness_map = MapOf(0.9f, 0.2f);
+  EXPECT_EQ(BoxAt(MustPlan(options).grasps.front().grasp), 1);
+  // FGE reports the given map's mean over each contact surface on request.
+  PlanOptions fge;
+  fge.stiffness_map = MapOf(0.2f, 0.9f);
+  fge.mean_stiffness = true;
+  for (const PlannedGrasp& g : MustPlan(fge).grasps) {
+    EXPECT_NEAR(g.grasp.mean_stiffness, BoxAt(g.grasp) == 2 ? 0.9 : 0.2, 1e-5);
+  }
+}
+
+TEST(PlanGrasps, ContactsStayInTheRegionOfInterestAndBeyondTheMinimumDepth) {
+  PlanOptions options;
+  options.region_of_interest = cv::Mat1b(Scene().labels.size(), 0);
+  options.region_of_interest.setTo(255, Scene().labels == 1);
+  Plan plan = MustPlan(options);
+  ASSERT_FALSE(plan.grasps.empty());
+  for (const PlannedGrasp& g : plan.grasps) EXPECT_EQ(BoxAt(g.grasp), 1);
+  // Box tops are 0.56 m from the camera: a working distance beyond them leaves no contact.
+  PlanOptions near;
+  near.min_depth_m = 0.58;
+  EXPECT_TRUE(MustPlan(near).grasps.empty());
+  near.min_depth_m = 0.5;
+  EXPECT_FALSE(MustPlan(near).grasps.empty());
+}
+
+TEST(PlanGrasps, GivenLabelsNameTheTargetByIdOrByPixel) {
+  PlanOptions options;
+  options.instances.labels = Scene().labels;
+  options.target_id = 2;
+  Plan plan = MustPlan(options);
+  ASSERT_FALSE(plan.grasps.empty());
+  ASSERT_TRUE(plan.instances.has_value());
+  EXPECT_STREQ(plan.instances->source, "labels");
+  EXPECT_EQ(plan.instances->count, 2);
+  for (const PlannedGrasp& g : plan.grasps) {
+    EXPECT_EQ(BoxAt(g.grasp), 2);
+    EXPECT_EQ(g.instance_id, 2);
+    EXPECT_FALSE(g.instance_deformability.has_value());  // no segmentation model ran
+  }
+  // A click on box 1.
+  options.target_id = 0;
+  const cv::Point2d left = testing::ProjectTablePoint(Scene().spec, -0.08, 0.0, 0.04);
+  options.target_px = cv::Point(static_cast<int>(left.x), static_cast<int>(left.y));
+  plan = MustPlan(options);
+  ASSERT_FALSE(plan.grasps.empty());
+  EXPECT_FALSE(plan.target_not_found);
+  for (const PlannedGrasp& g : plan.grasps) EXPECT_EQ(BoxAt(g.grasp), 1);
+  // A click on the table: no target, no grasps.
+  options.target_px = cv::Point(5, 5);
+  plan = MustPlan(options);
+  EXPECT_TRUE(plan.target_not_found);
+  EXPECT_TRUE(plan.grasps.empty());
+}
+
+TEST(PlanGrasps, MapsWithoutAPlan) {
+  PlanOptions options;
+  options.plan = false;
+  options.stiffness_map = MapOf(0.2f, 0.9f);
+  options.want_stiffness_map = true;
+  const Plan plan = MustPlan(options);
+  EXPECT_TRUE(plan.grasps.empty());
+  EXPECT_EQ(plan.timing.detect_ms, 0.0);
+  EXPECT_EQ(cv::norm(plan.stiffness, MapOf(0.2f, 0.9f), cv::NORM_INF), 0.0);
+}
+
+TEST(PlanGrasps, RefusesWhatTheCallerGotWrong) {
+  const auto error = [](const PlanOptions& options, const Models& models = {}) {
+    auto plan = PlanGrasps(Scene().synth.depth, Scene().synth.camera, options, models);
+    EXPECT_FALSE(plan.ok());
+    return plan.ok() ? core::Error{} : plan.error();
+  };
+  PlanOptions o;
+  o.strategy = Strategy::kStiffness;  // no model, no map
+  EXPECT_EQ(error(o).field, "strategy");
+  o.strategy = Strategy::kDeformability;
+  EXPECT_EQ(error(o).field, "strategy");
+  o = {};
+  o.mean_stiffness = true;
+  EXPECT_EQ(error(o).field, "mean_stiffness");
+  o = {};
+  o.region_of_interest = cv::Mat1b(10, 10, 255);
+  EXPECT_EQ(error(o).code, core::ErrorCode::kUnprocessable);
+  EXPECT_EQ(error(o).field, "segmask");
+  o = {};
+  o.stiffness_map = cv::Mat1f(10, 10, 0.5f);
+  o.strategy = Strategy::kStiffness;
+  EXPECT_EQ(error(o).field, "stiffness_map");
+  o = {};
+  o.min_depth_m = -1;
+  EXPECT_EQ(error(o).field, "min_depth_m");
+  o = {};
+  o.instances.labels = Scene().labels;
+  o.target_id = 7;
+  EXPECT_EQ(error(o).code, core::ErrorCode::kUnprocessable);
+  EXPECT_EQ(error(o).field, "target");
+  o = {};
+  o.fge.num_angles = 0;  // the planner refuses it
+  EXPECT_EQ(error(o).code, core::ErrorCode::kInvalidArgument);
+  // An image the preprocessing cannot use.
+  core::DepthImage empty;
+  empty.depth_m = cv::Mat1f(48, 64, std::nanf(""));
+  core::Camera camera = Scene().synth.camera;
+  camera.width = 64;
+  camera.height = 48;
+  auto plan = PlanGrasps(empty, camera, {}, {});
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, core::ErrorCode::kUnprocessable);
+}
+
+}  // namespace
+}  // namespace softgrasp::engine
