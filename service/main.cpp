@@ -14,7 +14,7 @@
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 #include "service/rest/api.h"
-#include "service/rest/config.h"
+#include "service/config/config.h"
 #include "service/robot/command_tracker.h"
 
 namespace {
@@ -41,13 +41,13 @@ std::string ExecutablePath(const char* argv0) {
 // the command tracker over the journal. Null when the robot endpoints are off, with the reason
 // printed; an error when they are on but cannot start (the service then does not start either).
 softgrasp::core::Result<std::shared_ptr<softgrasp::robot::CommandTracker>> StartRobot(
-    softgrasp::rest::RobotConfig& robot) {
+    softgrasp::config::RobotConfig& robot) {
   using namespace softgrasp;
-  if (const std::string reason = rest::RobotDisabledReason(robot); !reason.empty()) {
+  if (const std::string reason = config::RobotDisabledReason(robot); !reason.empty()) {
     std::cerr << "softgrasp-server: " << reason << "\n";
     return std::shared_ptr<robot::CommandTracker>();
   }
-  if (robot.journal_dir.empty()) robot.journal_dir = rest::DefaultJournalDir();
+  if (robot.journal_dir.empty()) robot.journal_dir = config::DefaultJournalDir();
   bridge::BridgeOptions options;
   options.domain_id = robot.domain_id;
   options.config = robot.dds_config;
@@ -123,25 +123,25 @@ LoadSegmentationModel(const std::string& path) {
 
 int main(int argc, char** argv) {
   using namespace softgrasp;
-  auto command_line = rest::ParseCommandLine(std::vector<std::string>(argv + 1, argv + argc));
+  auto command_line = config::ParseCommandLine(std::vector<std::string>(argv + 1, argv + argc));
   if (!command_line.ok()) {
-    std::cerr << "softgrasp-server: " << command_line.error().message << "\n" << rest::UsageText();
+    std::cerr << "softgrasp-server: " << command_line.error().message << "\n" << config::UsageText();
     return 2;
   }
   if (command_line.value().help) {
-    std::cout << rest::UsageText();
+    std::cout << config::UsageText();
     return 0;
   }
-  rest::ServiceConfig& config = command_line.value().config;
-  if (config.web_root.empty()) config.web_root = rest::DefaultWebRoot(ExecutablePath(argv[0]));
-  if (config.robot.journal_dir.empty()) config.robot.journal_dir = rest::DefaultJournalDir();
+  config::ServiceConfig& config = command_line.value().config;
+  if (config.web_root.empty()) config.web_root = config::DefaultWebRoot(ExecutablePath(argv[0]));
+  if (config.robot.journal_dir.empty()) config.robot.journal_dir = config::DefaultJournalDir();
   if (config.stiffness_model.empty()) {
-    config.stiffness_model = rest::DefaultStiffnessModel(ExecutablePath(argv[0]));
+    config.stiffness_model = config::DefaultStiffnessModel(ExecutablePath(argv[0]));
   }
   if (config.segmentation_model.empty()) {
-    config.segmentation_model = rest::DefaultSegmentationModel(ExecutablePath(argv[0]));
+    config.segmentation_model = config::DefaultSegmentationModel(ExecutablePath(argv[0]));
   }
-  std::cerr << "config " << rest::ConfigToJson(config) << "\n";
+  std::cerr << "config " << config::ConfigToJson(config) << "\n";
   if (std::error_code error; !std::filesystem::is_regular_file(
           std::filesystem::path(config.web_root) / "index.html", error)) {
     std::cerr << "softgrasp-server: no web page in " << config.web_root

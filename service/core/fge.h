@@ -10,6 +10,9 @@
 
 namespace softgrasp::core {
 
+/// num_height_steps at most: the fast path encodes up to 126 threshold levels (3 per slice).
+inline constexpr int kMaxHeightSteps = 40;
+
 struct FgeParams {
   int num_angles = 16;               ///< closing-axis angles over [0, pi)
   double height_step_m = 0.010;      ///< distance between height slices

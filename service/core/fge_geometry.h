@@ -31,8 +31,6 @@ inline constexpr double kTopSliceMarginM = 0.001;
 /// Each (angle, slice) map runs at most this many contact checks (each walks the whole closing
 /// region); shared by classic and stiffness-aware FGE.
 inline constexpr int kMaxContactChecksPerMap = 64;
-/// The fast path encodes up to 126 threshold levels (3 per slice).
-inline constexpr int kMaxHeightSteps = 40;
 
 /// One contact height: the fingers close on the surface above `contact_height_m`; their tips
 /// reach down to `tip_height_m` = contact height - grip depth; the palm is finger_length above the

@@ -87,8 +87,8 @@ json GripperToJson(const core::Gripper& g) {
 
 http::Response Healthz() { return http::Response::Json(200, R"({"status":"ok"})"); }
 
-json RobotInfoJson(const ServiceConfig& config, bool running) {
-  std::string reason = RobotDisabledReason(config.robot);
+json RobotInfoJson(const config::ServiceConfig& config, bool running) {
+  std::string reason = config::RobotDisabledReason(config.robot);
   if (reason.empty() && !running) reason = "the robot endpoints are not running in this process";
   json robot = {{"enabled", reason.empty()}};
   if (!reason.empty()) robot["reason"] = reason;
@@ -145,7 +145,7 @@ json Overlays(const Models& models) {
   return out;
 }
 
-http::Response Info(const ServiceConfig& config, bool robot_running, const Models& models) {
+http::Response Info(const config::ServiceConfig& config, bool robot_running, const Models& models) {
   const bool segmentation = models.segmentation != nullptr;
   const auto& limits = config.server.limits;
   json body = {
@@ -267,7 +267,7 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
   return body;
 }
 
-http::Response Grasps(const http::Request& request, const ServiceConfig& config,
+http::Response Grasps(const http::Request& request, const config::ServiceConfig& config,
                       const Models& models) {
   const auto start = Clock::now();
   auto parsed = ParseGraspRequest(request, config, models);
@@ -318,7 +318,7 @@ http::Response EncodeMap(const cv::Mat1f& map, StiffnessFormat format, Colorize&
 }
 
 // POST /v1/stiffness: the model's map of the uploaded depth, same size as the input.
-http::Response Stiffness(const http::Request& request, const ServiceConfig& config,
+http::Response Stiffness(const http::Request& request, const config::ServiceConfig& config,
                          const models::StiffnessModel* model) {
   if (!model) {
     return ErrorToResponse(core::MakeError(
@@ -358,7 +358,7 @@ json InstanceToJson(const segmentation::InstanceInfo& i) {
 }
 
 // POST /v1/segmentation: object instances of the uploaded depth (docs/segmentation.md).
-http::Response Segmentation(const http::Request& request, const ServiceConfig& config,
+http::Response Segmentation(const http::Request& request, const config::ServiceConfig& config,
                             const Models& models) {
   const models::StiffnessModel* stiffness_model = models.stiffness.get();
   const models::SegmentationModel* model = models.segmentation.get();
@@ -495,7 +495,7 @@ json FractalStats(const mesh::FractalModel& m, const FractalRequest& in, double 
   };
 }
 
-http::Response Fractals(const http::Request& request, const ServiceConfig& config) {
+http::Response Fractals(const http::Request& request, const config::ServiceConfig& config) {
   const auto start = Clock::now();
   const std::string content_type(request.header("Content-Type").value_or(""));
   if (!request.body.empty() && content_type.rfind("application/json", 0) != 0) {
@@ -571,9 +571,9 @@ http::Response ErrorToResponse(const core::Error& error) {
                              error.message, error.field);
 }
 
-http::Router BuildRouter(const ServiceConfig& config) { return BuildRouter(config, nullptr); }
+http::Router BuildRouter(const config::ServiceConfig& config) { return BuildRouter(config, nullptr); }
 
-http::Router BuildRouter(const ServiceConfig& config, std::shared_ptr<robot::CommandTracker> robot,
+http::Router BuildRouter(const config::ServiceConfig& config, std::shared_ptr<robot::CommandTracker> robot,
                          std::shared_ptr<const models::StiffnessModel> stiffness_model,
                          std::shared_ptr<const models::SegmentationModel> segmentation_model) {
   const Models models{std::move(stiffness_model), std::move(segmentation_model)};

@@ -14,8 +14,6 @@ namespace {
 using core::ErrorCode;
 using core::MakeError;
 
-constexpr int kMaxTopK = 100;
-
 // Form fields and query parameters, merged (form fields win), plus the file parts.
 struct RequestFields {
   std::map<std::string, std::string> values;
@@ -95,18 +93,26 @@ struct NumericOption {
   std::function<void(GraspRequest&, double)> apply;
 };
 
+// A field that overrides a configuration setting: the setting's limits, in the field's units
+// (`scale` per unit of the setting).
+NumericOption Overrides(const char* section, const char* key, double scale, bool integer,
+                        std::function<void(GraspRequest&, double)> apply) {
+  const config::Setting s = config::SettingOf(section, key);
+  return {s.min * scale, s.max * scale, integer, std::move(apply)};
+}
+
 const std::map<std::string, NumericOption>& NumericOptions() {
   static const std::map<std::string, NumericOption> options = {
-      {"opening_stroke_mm", {1, 1000, false, [](GraspRequest& r, double v) { r.plan.gripper.opening_stroke_m = core::MetresFromMm(v); }}},
-      {"finger_width_mm", {0.5, 500, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_width_m = core::MetresFromMm(v); }}},
-      {"finger_thickness_mm", {0.5, 500, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_thickness_m = core::MetresFromMm(v); }}},
-      {"finger_length_mm", {1, 1000, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_length_m = core::MetresFromMm(v); }}},
-      {"top_k", {1, kMaxTopK, true, [](GraspRequest& r, double v) { r.plan.fge.top_k = static_cast<int>(v); }}},
-      {"num_angles", {1, 180, true, [](GraspRequest& r, double v) { r.plan.fge.num_angles = static_cast<int>(v); }}},
-      {"num_height_steps", {1, 20, true, [](GraspRequest& r, double v) { r.plan.fge.num_height_steps = static_cast<int>(v); }}},
-      {"height_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.plan.fge.height_step_m = v / 1000.0; }}},
-      {"grip_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.plan.fge.grip_depth_m = v / 1000.0; }}},
-      {"min_depth_m", {0, 100, false, [](GraspRequest& r, double v) { r.plan.min_depth_m = v; }}},
+      {"opening_stroke_mm", Overrides("gripper", "opening_stroke_mm", 1, false, [](GraspRequest& r, double v) { r.plan.gripper.opening_stroke_m = core::MetresFromMm(v); })},
+      {"finger_width_mm", Overrides("gripper", "finger_width_mm", 1, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_width_m = core::MetresFromMm(v); })},
+      {"finger_thickness_mm", Overrides("gripper", "finger_thickness_mm", 1, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_thickness_m = core::MetresFromMm(v); })},
+      {"finger_length_mm", Overrides("gripper", "finger_length_mm", 1, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_length_m = core::MetresFromMm(v); })},
+      {"top_k", Overrides("fge", "top_k", 1, true, [](GraspRequest& r, double v) { r.plan.fge.top_k = static_cast<int>(v); })},
+      {"num_angles", Overrides("fge", "num_angles", 1, true, [](GraspRequest& r, double v) { r.plan.fge.num_angles = static_cast<int>(v); })},
+      {"num_height_steps", Overrides("fge", "num_height_steps", 1, true, [](GraspRequest& r, double v) { r.plan.fge.num_height_steps = static_cast<int>(v); })},
+      {"height_step_mm", Overrides("fge", "height_step_m", 1000, false, [](GraspRequest& r, double v) { r.plan.fge.height_step_m = v / 1000.0; })},
+      {"grip_depth_mm", Overrides("fge", "grip_depth_m", 1000, false, [](GraspRequest& r, double v) { r.plan.fge.grip_depth_m = v / 1000.0; })},
+      {"min_depth_m", Overrides("depth", "min_depth_m", 1, false, [](GraspRequest& r, double v) { r.plan.min_depth_m = v; })},
       // strategy=deformability (docs/deformability.md): Algorithm 1's K, L, M, R and the rules
       // for partially deformable objects and soft obstacles.
       {"min_target_area_px", {0, 1e6, false, [](GraspRequest& r, double v) { r.plan.deformability.min_target_area_px = v; }}},
@@ -123,7 +129,7 @@ const std::map<std::string, NumericOption>& NumericOptions() {
 
 constexpr const char* kIntrinsicKeys[] = {"fx", "fy", "cx", "cy"};
 
-core::Result<core::Camera> ResolveCamera(const RequestFields& fields, const ServiceConfig& config,
+core::Result<core::Camera> ResolveCamera(const RequestFields& fields, const config::ServiceConfig& config,
                                          const core::DepthImage& depth, std::string* source) {
   core::Camera camera = config.default_camera;
   *source = "default";
@@ -182,7 +188,7 @@ bool IsUploadField(const std::string& key) {
   return false;
 }
 
-core::Result<DepthUpload> DecodeUpload(const RequestFields& fields, const ServiceConfig& config) {
+core::Result<DepthUpload> DecodeUpload(const RequestFields& fields, const config::ServiceConfig& config) {
   double png_unit_m = config.png_unit_m;
   if (const auto unit = fields.values.find("png_unit_m"); unit != fields.values.end()) {
     auto v = ParseNumber("png_unit_m", unit->second, 1e-6, 1.0);
@@ -241,7 +247,7 @@ constexpr std::array<std::optional<segmentation::Method>, 2> kMethods = {
     segmentation::Method::kModel, segmentation::Method::kPcl};
 
 // A label image upload: a 16-bit PNG of the depth's size, counts = instance ids (0 = none).
-core::Result<cv::Mat1w> DecodeLabels(const std::string& bytes, const ServiceConfig& config,
+core::Result<cv::Mat1w> DecodeLabels(const std::string& bytes, const config::ServiceConfig& config,
                                      const core::DepthImage& depth) {
   const auto relabel = [](core::Error e) {
     e.field = "labels";
@@ -326,7 +332,7 @@ core::Result<engine::Strategy> ParseStrategy(const RequestFields& fields,
 }
 
 core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
-                                             const ServiceConfig& config,
+                                             const config::ServiceConfig& config,
                                              const engine::Models& models) {
   auto collected = CollectFields(request);
   if (!collected.ok()) return collected.error();
@@ -457,7 +463,7 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
 }
 
 core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& request,
-                                                     const ServiceConfig& config) {
+                                                     const config::ServiceConfig& config) {
   auto collected = CollectFields(request);
   if (!collected.ok()) return collected.error();
   const RequestFields& fields = collected.value();
@@ -485,7 +491,7 @@ core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& reques
 }
 
 core::Result<SegmentationRequest> ParseSegmentationRequest(const http::Request& request,
-                                                           const ServiceConfig& config) {
+                                                           const config::ServiceConfig& config) {
   auto collected = CollectFields(request);
   if (!collected.ok()) return collected.error();
   const RequestFields& fields = collected.value();

@@ -11,7 +11,7 @@
 #include "service/engine/engine.h"
 #include "service/http/message.h"
 #include "service/io/depth_codec.h"
-#include "service/rest/config.h"
+#include "service/config/config.h"
 #include "service/segmentation/instances.h"
 
 namespace softgrasp::rest {
@@ -56,7 +56,7 @@ struct GraspRequest {
 
 /// Which strategies and overlays can be served, and the default strategy, follow from `models`.
 core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
-                                             const ServiceConfig& config,
+                                             const config::ServiceConfig& config,
                                              const engine::Models& models);
 
 /// POST /v1/stiffness answer formats: 8-bit PNG (round(255 s)), 16-bit PNG (round(65535 s)),
@@ -71,7 +71,7 @@ struct StiffnessRequest {
 /// Fields: the depth (and intrinsics) as for /v1/grasps, png_unit_m, and "format" = png8
 /// (default), png16, npy or color; anything else is a 400 naming the field.
 core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& request,
-                                                     const ServiceConfig& config);
+                                                     const config::ServiceConfig& config);
 
 /// POST /v1/segmentation answers: the instances as JSON, the 16-bit label image, the coloured
 /// overlay picture, or the model's deformability map (encoded as /v1/stiffness encodes its map).
@@ -91,6 +91,6 @@ struct SegmentationRequest {
 /// anything else is a 400 naming the field. Whether the method can serve is checked later
 /// (ResolveSegmentationMethod).
 core::Result<SegmentationRequest> ParseSegmentationRequest(const http::Request& request,
-                                                           const ServiceConfig& config);
+                                                           const config::ServiceConfig& config);
 
 }  // namespace softgrasp::rest

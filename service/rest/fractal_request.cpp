@@ -86,7 +86,7 @@ core::Result<bool> ApplyScale(const json& v, mesh::FractalParams& p) {
 }  // namespace
 
 core::Result<FractalRequest> ParseFractalRequest(std::string_view body,
-                                                 const ServiceConfig& config) {
+                                                 const config::ServiceConfig& config) {
   FractalRequest out;
   out.params.max_attempts = config.max_fractal_attempts;
   const json doc = body.empty() ? json::object() : json::parse(body, nullptr, false);

@@ -7,7 +7,7 @@
 #include "service/core/status.h"
 #include "service/mesh/fractal.h"
 #include "service/mesh/mesh_io.h"
-#include "service/rest/config.h"
+#include "service/config/config.h"
 
 namespace softgrasp::rest {
 
@@ -21,7 +21,7 @@ struct FractalRequest {
 /// "scale": {"opening_mm", "fit_fraction"}, "format"}; every key optional.
 /// kInvalidArgument naming the field for wrong types, ranges and unknown keys.
 core::Result<FractalRequest> ParseFractalRequest(std::string_view body,
-                                                 const ServiceConfig& config);
+                                                 const config::ServiceConfig& config);
 
 /// File name for Content-Disposition, e.g. "fractal-seed42-alpha0.3.obj".
 std::string FractalFileName(const FractalRequest& request);

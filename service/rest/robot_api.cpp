@@ -92,7 +92,7 @@ bool IsJson(const http::Request& request) {
   return type.rfind("application/json", 0) == 0;
 }
 
-http::Response PostGrasp(const http::Request& request, const ServiceConfig& config,
+http::Response PostGrasp(const http::Request& request, const config::ServiceConfig& config,
                          robot::CommandTracker& tracker) {
   if (auto auth = Authorize(request, config.robot.tokens); !auth) return Failure(auth.error());
   if (!IsJson(request)) {
@@ -108,7 +108,7 @@ http::Response PostGrasp(const http::Request& request, const ServiceConfig& conf
   return CommandResponse(submitted.value().created ? 202 : 200, submitted.value().record);
 }
 
-http::Response GetGrasp(const http::Request& request, const ServiceConfig& config,
+http::Response GetGrasp(const http::Request& request, const config::ServiceConfig& config,
                         const robot::CommandTracker& tracker) {
   if (auto auth = Authorize(request, config.robot.tokens); !auth) return Failure(auth.error());
   const std::string& id = request.path_params.at("id");
@@ -123,7 +123,7 @@ http::Response GetGrasp(const http::Request& request, const ServiceConfig& confi
   return CommandResponse(200, *record);
 }
 
-http::Response GetRobots(const ServiceConfig& config, const robot::CommandTracker& tracker) {
+http::Response GetRobots(const config::ServiceConfig& config, const robot::CommandTracker& tracker) {
   json robots = json::array();
   for (const bridge::RobotInfo& r : tracker.Robots()) {
     robots.push_back({{"robot_id", r.status.robot_id},
@@ -191,9 +191,9 @@ core::Result<bridge::Ok> Authorize(const http::Request& request,
   return bridge::Ok{};
 }
 
-void AddRobotRoutes(http::Router& router, const ServiceConfig& config,
+void AddRobotRoutes(http::Router& router, const config::ServiceConfig& config,
                     std::shared_ptr<robot::CommandTracker> tracker) {
-  std::string reason = RobotDisabledReason(config.robot);
+  std::string reason = config::RobotDisabledReason(config.robot);
   if (reason.empty() && !tracker) {
     reason = "the robot endpoints are not running in this process (no robot bus)";
   }

@@ -172,7 +172,7 @@ bool IsValidClientId(std::string_view id) {
 }
 
 core::Result<RobotGraspRequest> ParseRobotGraspRequest(std::string_view body_text,
-                                                       const RobotConfig& config) {
+                                                       const config::RobotConfig& config) {
   PathTrackingSax sax;
   if (!json::sax_parse(body_text, &sax)) {
     if (sax.not_finite) return Unusable(sax.error_field, "must be a finite number");

@@ -8,7 +8,7 @@
 
 #include "service/bridge/messages.h"
 #include "service/core/status.h"
-#include "service/rest/config.h"
+#include "service/config/config.h"
 
 namespace softgrasp::rest {
 
@@ -26,6 +26,6 @@ bool IsValidClientId(std::string_view id);
 /// number that is not finite or out of range, a quaternion that is not unit length, a pose
 /// outside robot.workspace or in another frame; 422). `field` names the offending field.
 core::Result<RobotGraspRequest> ParseRobotGraspRequest(std::string_view body,
-                                                       const RobotConfig& config);
+                                                       const config::RobotConfig& config);
 
 }  // namespace softgrasp::rest

@@ -18,7 +18,7 @@ using testing::RunningServer;
 class FractalsApiTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    ServiceConfig config;
+    config::ServiceConfig config;
     config.max_fractal_points = 20000;
     server_ = new RunningServer(config);
   }

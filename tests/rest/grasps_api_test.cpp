@@ -283,7 +283,7 @@ TEST_F(GraspsApiTest, IntrinsicsOfAnotherImageSizeAreRefused) {
 }
 
 TEST(GraspsApiLimitsTest, ImagesOverThePixelLimitAreRefusedBeforeDecoding) {
-  ServiceConfig config;
+  config::ServiceConfig config;
   config.max_image_pixels = 640 * 480 - 1;
   RunningServer server(config);
   const auto reply = server.Send(MultipartRequest(
@@ -292,7 +292,7 @@ TEST(GraspsApiLimitsTest, ImagesOverThePixelLimitAreRefusedBeforeDecoding) {
 }
 
 TEST(GraspsApiLimitsTest, BodiesOverTheByteLimitGet413) {
-  ServiceConfig config;
+  config::ServiceConfig config;
   config.server.limits.max_body_bytes = 1000;
   RunningServer server(config);
   const auto reply = server.Send(RawRequest("POST", "/v1/grasps", "application/x-npy", std::string(5000, 'x')));

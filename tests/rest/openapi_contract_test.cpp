@@ -32,7 +32,7 @@ TEST(OpenApiContractTest, EveryDocumentedRouteIsServedAndViceVersa) {
     }
   }
   std::set<std::pair<std::string, std::string>> served;
-  for (const auto& [method, pattern] : BuildRouter(ServiceConfig{}).Routes()) {
+  for (const auto& [method, pattern] : BuildRouter(config::ServiceConfig{}).Routes()) {
     served.emplace(Lower(method), pattern);
   }
   EXPECT_EQ(documented, served);

@@ -33,8 +33,8 @@ using testing::RunningServer;
 
 const std::string kToken = "test-token-0123456789abcdef";
 
-ServiceConfig RobotConfigFor(const std::string& journal_dir, double timeout_s = 20.0) {
-  ServiceConfig config;
+config::ServiceConfig RobotConfigFor(const std::string& journal_dir, double timeout_s = 20.0) {
+  config::ServiceConfig config;
   config.robot.tokens = {"another-token-that-is-long", kToken};
   config.robot.journal_dir = journal_dir;
   config.robot.command_timeout_s = timeout_s;
@@ -42,7 +42,7 @@ ServiceConfig RobotConfigFor(const std::string& journal_dir, double timeout_s = 
   return config;
 }
 
-std::shared_ptr<robot::CommandTracker> MakeTracker(const ServiceConfig& config) {
+std::shared_ptr<robot::CommandTracker> MakeTracker(const config::ServiceConfig& config) {
   robot::TrackerOptions options;
   options.journal_dir = config.robot.journal_dir;
   options.command_timeout_s = config.robot.command_timeout_s;
@@ -113,7 +113,7 @@ class RobotApiTest : public ::testing::Test {
 
 TEST_F(RobotApiTest, ForwardOverHttpRobotExecutesAndResultIsShown) {
   TempDir dir("rest-robot-forward");
-  const ServiceConfig config = RobotConfigFor(dir.str());
+  const config::ServiceConfig config = RobotConfigFor(dir.str());
   auto tracker = MakeTracker(config);
   auto robot = MakeRobot("arm-1");
   ASSERT_TRUE(tracker && robot);
@@ -189,7 +189,7 @@ TEST_F(RobotApiTest, ForwardOverHttpRobotExecutesAndResultIsShown) {
 
 TEST_F(RobotApiTest, SameIdTwiceMovesTheRobotOnceAndAnotherBodyIs409) {
   TempDir dir("rest-robot-idempotent");
-  const ServiceConfig config = RobotConfigFor(dir.str());
+  const config::ServiceConfig config = RobotConfigFor(dir.str());
   auto tracker = MakeTracker(config);
   auto robot = MakeRobot("arm-1");
   ASSERT_TRUE(tracker && robot);
@@ -218,7 +218,7 @@ TEST_F(RobotApiTest, SameIdTwiceMovesTheRobotOnceAndAnotherBodyIs409) {
 
 TEST_F(RobotApiTest, TokensAreCheckedAndNeverLogged) {
   TempDir dir("rest-robot-auth");
-  const ServiceConfig config = RobotConfigFor(dir.str());
+  const config::ServiceConfig config = RobotConfigFor(dir.str());
   auto tracker = MakeTracker(config);
   auto robot = MakeRobot("arm-1");
   ASSERT_TRUE(tracker && robot);
@@ -270,7 +270,7 @@ TEST(TokenMatchesTest, ExactMatchOnly) {
 
 TEST_F(RobotApiTest, BadGraspsAre4xxNamingTheFieldAndNothingIsSent) {
   TempDir dir("rest-robot-validate");
-  ServiceConfig config = RobotConfigFor(dir.str());
+  config::ServiceConfig config = RobotConfigFor(dir.str());
   auto tracker = MakeTracker(config);
   auto robot = MakeRobot("arm-1");
   ASSERT_TRUE(tracker && robot);
@@ -325,7 +325,7 @@ TEST_F(RobotApiTest, BadGraspsAre4xxNamingTheFieldAndNothingIsSent) {
 
 TEST_F(RobotApiTest, NoRobotIs503WithRetryAfterAndDisabledRoutesSayWhy) {
   TempDir dir("rest-robot-503");
-  const ServiceConfig config = RobotConfigFor(dir.str());
+  const config::ServiceConfig config = RobotConfigFor(dir.str());
   auto tracker = MakeTracker(config);
   ASSERT_TRUE(tracker);
   RunningServer server(config, tracker);
@@ -336,7 +336,7 @@ TEST_F(RobotApiTest, NoRobotIs503WithRetryAfterAndDisabledRoutesSayWhy) {
   ExpectError(Get(server, "/v1/robot/grasps/n-1"), 404, "id");  // not accepted
   EXPECT_EQ(Problems(Get(server, "/v1/robot"), "RobotList"), std::vector<std::string>{});
 
-  ServiceConfig no_tokens;  // the default: robot endpoints on, but no tokens
+  config::ServiceConfig no_tokens;  // the default: robot endpoints on, but no tokens
   RunningServer disabled(no_tokens);
   for (const HttpReply& reply :
        {Post(disabled, GraspBody("n-2")), Get(disabled, "/v1/robot/grasps/n-2"),
@@ -353,7 +353,7 @@ TEST_F(RobotApiTest, NoRobotIs503WithRetryAfterAndDisabledRoutesSayWhy) {
 
 TEST_F(RobotApiTest, NoResultInTimeIsTimedOut) {
   TempDir dir("rest-robot-timeout");
-  const ServiceConfig config = RobotConfigFor(dir.str(), /*timeout_s=*/0.8);
+  const config::ServiceConfig config = RobotConfigFor(dir.str(), /*timeout_s=*/0.8);
   auto tracker = MakeTracker(config);
   auto robot = MakeRobot("arm-1");  // takes nothing, answers nothing
   ASSERT_TRUE(tracker && robot);
@@ -370,7 +370,7 @@ TEST_F(RobotApiTest, NoResultInTimeIsTimedOut) {
 
 TEST_F(RobotApiTest, RestartOverTheJournalKeepsOldIdsAndCompletesPendingOnes) {
   TempDir dir("rest-robot-restart");
-  const ServiceConfig config = RobotConfigFor(dir.str());
+  const config::ServiceConfig config = RobotConfigFor(dir.str());
   {
     auto tracker = MakeTracker(config);
     auto robot = MakeRobot("arm-1");

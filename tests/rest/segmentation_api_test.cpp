@@ -427,20 +427,20 @@ TEST_F(SegmentationApiTest, DeformabilityStrategyNeedsTheSegmentationModel) {
 }
 
 TEST(SegmentationModelConfigTest, FileEnvironmentAndFlagSetTheModel) {
-  auto from_file = ApplyConfigJson({}, R"({"models": {"segmentation": "/a.pt"}})");
+  auto from_file = config::ApplyConfigJson({}, R"({"models": {"segmentation": "/a.pt"}})");
   ASSERT_TRUE(from_file.ok()) << from_file.error().message;
   EXPECT_EQ(from_file.value().segmentation_model, "/a.pt");
-  EXPECT_EQ(ApplyConfigJson({}, R"({"models": {"segmentation": 3}})").error().field,
+  EXPECT_EQ(config::ApplyConfigJson({}, R"({"models": {"segmentation": 3}})").error().field,
             "models.segmentation");
   ::setenv("SOFTGRASP_SEGMENTATION_MODEL", "none", 1);
-  EXPECT_EQ(ParseCommandLine({}).value().config.segmentation_model, "none");
-  EXPECT_EQ(ParseCommandLine({"--segmentation-model", "/f.pt"}).value().config.segmentation_model,
+  EXPECT_EQ(config::ParseCommandLine({}).value().config.segmentation_model, "none");
+  EXPECT_EQ(config::ParseCommandLine({"--segmentation-model", "/f.pt"}).value().config.segmentation_model,
             "/f.pt");
   ::unsetenv("SOFTGRASP_SEGMENTATION_MODEL");
-  EXPECT_EQ(ParseCommandLine({}).value().config.segmentation_model, "");  // main picks the default
-  EXPECT_FALSE(ParseCommandLine({"--segmentation-model"}).ok());
-  EXPECT_EQ(json::parse(ConfigToJson(
-                ParseCommandLine({"--segmentation-model", "/m"}).value().config))["models"]
+  EXPECT_EQ(config::ParseCommandLine({}).value().config.segmentation_model, "");  // main picks the default
+  EXPECT_FALSE(config::ParseCommandLine({"--segmentation-model"}).ok());
+  EXPECT_EQ(json::parse(config::ConfigToJson(
+                config::ParseCommandLine({"--segmentation-model", "/m"}).value().config))["models"]
                                                                                  ["segmentation"],
             "/m");
 }
@@ -454,14 +454,14 @@ TEST(SegmentationModelConfigTest, DefaultIsTheShippedModelNextToTheExecutableEls
     fs::create_directories(file.parent_path());
     std::ofstream(file) << "x";
   };
-  EXPECT_EQ(DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()), "none");
+  EXPECT_EQ(config::DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()), "none");
   touch(prefix / "models" / "pix2stiffness.pt");  // the other model does not count
-  EXPECT_EQ(DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()), "none");
+  EXPECT_EQ(config::DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()), "none");
   touch(prefix / "share" / "softgrasp" / "models" / "segmentation.pt");
-  EXPECT_EQ(DefaultSegmentationModel((prefix / "bin" / "softgrasp-server").string()),
+  EXPECT_EQ(config::DefaultSegmentationModel((prefix / "bin" / "softgrasp-server").string()),
             (prefix / "share" / "softgrasp" / "models" / "segmentation.pt").string());
   touch(prefix / "models" / "segmentation.pt");
-  EXPECT_EQ(DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()),
+  EXPECT_EQ(config::DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()),
             (prefix / "models" / "segmentation.pt").string());
   fs::remove_all(prefix);
 }

@@ -21,7 +21,7 @@
 #include "service/http/message.h"
 #include "service/http/server.h"
 #include "service/rest/api.h"
-#include "service/rest/config.h"
+#include "service/config/config.h"
 
 namespace softgrasp::rest::testing {
 
@@ -159,7 +159,7 @@ inline std::shared_ptr<const models::SegmentationModel> ShippedSegmentationModel
 /// A running server for one test.
 class RunningServer {
  public:
-  explicit RunningServer(ServiceConfig config = {},
+  explicit RunningServer(config::ServiceConfig config = {},
                          std::shared_ptr<robot::CommandTracker> robot = nullptr,
                          std::function<void(const std::string&)> access_log = nullptr,
                          std::shared_ptr<const models::StiffnessModel> stiffness_model = nullptr,
@@ -180,7 +180,7 @@ class RunningServer {
   HttpReply Send(const std::string& raw) const { return Exchange(port(), raw); }
 
  private:
-  ServiceConfig config_;
+  config::ServiceConfig config_;
   http::Router router_;
   std::unique_ptr<http::Server> server_;
 };

@@ -308,18 +308,18 @@ TEST_F(StiffnessApiTest, InfoListsTheModelAndBothStrategies) {
 }
 
 TEST(StiffnessModelConfigTest, ConfigFileEnvironmentAndFlag) {
-  auto from_json = ApplyConfigJson({}, R"({"models": {"stiffness": "/srv/m.pt"}})");
+  auto from_json = config::ApplyConfigJson({}, R"({"models": {"stiffness": "/srv/m.pt"}})");
   ASSERT_TRUE(from_json.ok());
   EXPECT_EQ(from_json.value().stiffness_model, "/srv/m.pt");
-  EXPECT_EQ(ApplyConfigJson({}, R"({"models": {"stiffness": 1}})").error().field,
+  EXPECT_EQ(config::ApplyConfigJson({}, R"({"models": {"stiffness": 1}})").error().field,
             "models.stiffness");
   ::setenv("SOFTGRASP_STIFFNESS_MODEL", "none", 1);
-  EXPECT_EQ(ParseCommandLine({}).value().config.stiffness_model, "none");
-  EXPECT_EQ(ParseCommandLine({"--stiffness-model", "/f.pt"}).value().config.stiffness_model,
+  EXPECT_EQ(config::ParseCommandLine({}).value().config.stiffness_model, "none");
+  EXPECT_EQ(config::ParseCommandLine({"--stiffness-model", "/f.pt"}).value().config.stiffness_model,
             "/f.pt");
   ::unsetenv("SOFTGRASP_STIFFNESS_MODEL");
-  EXPECT_FALSE(ParseCommandLine({"--stiffness-model"}).ok());
-  EXPECT_EQ(json::parse(ConfigToJson(ParseCommandLine({"--stiffness-model", "/m"}).value().config))
+  EXPECT_FALSE(config::ParseCommandLine({"--stiffness-model"}).ok());
+  EXPECT_EQ(json::parse(config::ConfigToJson(config::ParseCommandLine({"--stiffness-model", "/m"}).value().config))
                 ["models"]["stiffness"],
             "/m");
 }
@@ -333,12 +333,12 @@ TEST(StiffnessModelConfigTest, DefaultIsTheShippedModelNextToTheExecutable) {
     fs::create_directories(file.parent_path());
     std::ofstream(file) << "x";
   };
-  EXPECT_EQ(DefaultStiffnessModel((prefix / "service" / "softgrasp-server").string()), "none");
+  EXPECT_EQ(config::DefaultStiffnessModel((prefix / "service" / "softgrasp-server").string()), "none");
   touch(prefix / "share" / "softgrasp" / "models" / "pix2stiffness.pt");
-  EXPECT_EQ(DefaultStiffnessModel((prefix / "bin" / "softgrasp-server").string()),
+  EXPECT_EQ(config::DefaultStiffnessModel((prefix / "bin" / "softgrasp-server").string()),
             (prefix / "share" / "softgrasp" / "models" / "pix2stiffness.pt").string());
   touch(prefix / "models" / "pix2stiffness.pt");
-  EXPECT_EQ(DefaultStiffnessModel((prefix / "service" / "softgrasp-server").string()),
+  EXPECT_EQ(config::DefaultStiffnessModel((prefix / "service" / "softgrasp-server").string()),
             (prefix / "models" / "pix2stiffness.pt").string());
   fs::remove_all(prefix);
 }

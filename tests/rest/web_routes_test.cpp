@@ -14,7 +14,7 @@
 #include "service/http/static_files.h"
 #include "service/io/depth_codec.h"
 #include "service/io/overlay.h"
-#include "service/rest/config.h"
+#include "service/config/config.h"
 #include "tests/rest/server_fixture.h"
 
 namespace softgrasp::rest {
@@ -43,7 +43,7 @@ class WebRoutesTest : public ::testing::Test {
     WriteFile(sandbox_ / "web" / "index.html", kIndex);
     WriteFile(sandbox_ / "web" / "assets" / "app-ABCD1234.js", kScript);
     WriteFile(sandbox_ / "secret.txt", kSecret);
-    ServiceConfig config;
+    config::ServiceConfig config;
     config.web_root = (sandbox_ / "web").string();
     server_ = std::make_unique<testing::RunningServer>(config);
   }
@@ -115,7 +115,7 @@ TEST_F(WebRoutesTest, NothingOutsideTheAssetsIsServed) {
 }
 
 TEST(WebRootTest, MissingPageIs404SayingHowToBuildIt) {
-  ServiceConfig config;
+  config::ServiceConfig config;
   config.web_root = "/nonexistent/softgrasp-web";
   testing::RunningServer server(config);
   const auto reply = server.Send(RawRequest("GET", "/"));
@@ -125,19 +125,19 @@ TEST(WebRootTest, MissingPageIs404SayingHowToBuildIt) {
 }
 
 TEST(WebRootTest, ConfigFileEnvironmentAndFlag) {
-  auto from_json = ApplyConfigJson({}, R"({"web": {"root": "/srv/web"}})");
+  auto from_json = config::ApplyConfigJson({}, R"({"web": {"root": "/srv/web"}})");
   ASSERT_TRUE(from_json.ok());
   EXPECT_EQ(from_json.value().web_root, "/srv/web");
-  EXPECT_EQ(ApplyConfigJson({}, R"({"web": {"root": 3}})").error().field, "web.root");
-  EXPECT_EQ(ApplyConfigJson({}, R"({"web": {"rot": "x"}})").error().field, "web.rot");
+  EXPECT_EQ(config::ApplyConfigJson({}, R"({"web": {"root": 3}})").error().field, "web.root");
+  EXPECT_EQ(config::ApplyConfigJson({}, R"({"web": {"rot": "x"}})").error().field, "web.rot");
 
   ::setenv("SOFTGRASP_WEB_ROOT", "/env/web", 1);
-  EXPECT_EQ(ParseCommandLine({}).value().config.web_root, "/env/web");
-  EXPECT_EQ(ParseCommandLine({"--web-root", "/flag/web"}).value().config.web_root, "/flag/web");
+  EXPECT_EQ(config::ParseCommandLine({}).value().config.web_root, "/env/web");
+  EXPECT_EQ(config::ParseCommandLine({"--web-root", "/flag/web"}).value().config.web_root, "/flag/web");
   ::unsetenv("SOFTGRASP_WEB_ROOT");
-  EXPECT_FALSE(ParseCommandLine({"--web-root"}).ok());
+  EXPECT_FALSE(config::ParseCommandLine({"--web-root"}).ok());
   EXPECT_EQ(json::parse(
-                ConfigToJson(ParseCommandLine({"--web-root", "/w"}).value().config))["web"]["root"],
+                config::ConfigToJson(config::ParseCommandLine({"--web-root", "/w"}).value().config))["web"]["root"],
             "/w");
 }
 
@@ -146,13 +146,13 @@ TEST(WebRootTest, DefaultIsNextToTheExecutable) {
   ASSERT_NE(::mkdtemp(pattern), nullptr);
   const fs::path prefix = pattern;
   // Nothing built: the build-tree folder, so the start-up warning names where it should be.
-  EXPECT_EQ(DefaultWebRoot((prefix / "service" / "softgrasp-server").string()),
+  EXPECT_EQ(config::DefaultWebRoot((prefix / "service" / "softgrasp-server").string()),
             (prefix / "web").string());
   WriteFile(prefix / "share" / "softgrasp" / "web" / "index.html", "x");
-  EXPECT_EQ(DefaultWebRoot((prefix / "bin" / "softgrasp-server").string()),
+  EXPECT_EQ(config::DefaultWebRoot((prefix / "bin" / "softgrasp-server").string()),
             (prefix / "share" / "softgrasp" / "web").string());
   WriteFile(prefix / "web" / "index.html", "x");
-  EXPECT_EQ(DefaultWebRoot((prefix / "service" / "softgrasp-server").string()),
+  EXPECT_EQ(config::DefaultWebRoot((prefix / "service" / "softgrasp-server").string()),
             (prefix / "web").string());
   fs::remove_all(prefix);
 }

@@ -1,6 +1,8 @@
 #pragma once
-/// Service configuration: defaults, then a JSON file, then SOFTGRASP_* environment variables,
-/// then command-line flags. Printed at start-up.
+/// The service's configuration: defaults, then a JSON file, then SOFTGRASP_* environment
+/// variables, then command-line flags, all read through one table of settings (Settings():
+/// section and key in the file, environment variable, flag, limits, help). Printed at start-up.
+/// Process wiring, not REST: the handlers only read the ServiceConfig they are given.
 
 #include <optional>
 #include <string>
@@ -13,7 +15,7 @@
 #include "service/core/status.h"
 #include "service/http/server.h"
 
-namespace softgrasp::rest {
+namespace softgrasp::config {
 
 /// The robot endpoints (docs/robot-api.md): forwarding grasps to robots over DDS.
 struct RobotConfig {
@@ -71,27 +73,40 @@ std::string RobotDisabledReason(const RobotConfig& robot);
 /// ${XDG_STATE_HOME:-$HOME/.local/state}/softgrasp/robot-journal, or "" when neither is set.
 std::string DefaultJournalDir();
 
+/// One setting of the table: {"section": {"key": value}} in the file, and optionally an
+/// environment variable and a flag. Numbers must lie in [min, max] (in the file's units) wherever
+/// they come from; requests that override a setting are held to the same limits.
+struct Setting {
+  const char* section;
+  const char* key;
+  const char* env;   ///< SOFTGRASP_..., or null
+  const char* flag;  ///< --..., or null
+  double min = 0, max = 0;  ///< numbers only
+  const char* help;
+};
+
+/// Every setting, in the order of docs/configuration.md and the start-up dump.
+std::vector<Setting> Settings();
+/// The setting `section`.`key`. @throws std::invalid_argument for an unknown one.
+Setting SettingOf(const std::string& section, const std::string& key);
+
 /// Applies a JSON config document (see docs/configuration.md) onto `config`.
 /// kInvalidArgument naming the key when a value has the wrong type or range.
 core::Result<ServiceConfig> ApplyConfigJson(ServiceConfig config, const std::string& json_text);
 
-/// Applies SOFTGRASP_HOST, SOFTGRASP_PORT, SOFTGRASP_WORKERS, SOFTGRASP_MAX_BODY_BYTES,
-/// SOFTGRASP_MAX_IMAGE_PIXELS, SOFTGRASP_MIN_DEPTH_M, SOFTGRASP_WEB_ROOT,
-/// SOFTGRASP_STIFFNESS_MODEL, SOFTGRASP_SEGMENTATION_MODEL, and the robot settings
-/// SOFTGRASP_ROBOT_ENABLED, SOFTGRASP_ROBOT_DOMAIN_ID, SOFTGRASP_ROBOT_DDS_CONFIG,
-/// SOFTGRASP_ROBOT_TOKENS (comma-separated), SOFTGRASP_ROBOT_JOURNAL_DIR, SOFTGRASP_ROBOT_COMMAND_TIMEOUT_S from the environment.
+/// Applies the settings' environment variables (Settings() with an env; tokens comma-separated).
+/// kInvalidArgument naming the variable when its value is not a number, true/false, or in range.
 core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config);
 
-/// Parses argv: --host H, --port P, --config FILE, --workers N, --web-root DIR,
-/// --stiffness-model FILE|none, --segmentation-model FILE|none, --help. The
-/// config file is applied first, then the environment, then the other flags. `help` is set for
-/// --help.
+/// Parses argv: --config FILE, the settings' flags (Settings() with a flag), --help. The config
+/// file is applied first, then the environment, then the other flags. `help` is set for --help.
 struct CommandLine {
   ServiceConfig config;
   bool help = false;
 };
 core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args);
 
+/// The flags and environment variables with their help, from Settings().
 std::string UsageText();
 
 /// Where the built page is when no web root is configured, given the server executable's path
@@ -114,4 +129,4 @@ std::string DefaultSegmentationModel(const std::string& executable_path);
 /// The effective configuration as JSON, with the robot tokens masked.
 std::string ConfigToJson(const ServiceConfig& config);
 
-}  // namespace softgrasp::rest
+}  // namespace softgrasp::config

@@ -1,12 +1,14 @@
-#include "service/rest/config.h"
+#include "service/config/config.h"
 
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
-namespace softgrasp::rest {
+namespace softgrasp::config {
 namespace {
 
 TEST(ConfigTest, JsonOverridesDefaults) {
@@ -116,5 +118,57 @@ TEST(ConfigTest, RobotEnvironment) {
   }
 }
 
+// One table drives the file, the environment, the flags, the dump and the usage text.
+TEST(ConfigTable, EverySettingIsNamedOnceAndReachesTheDumpAndTheUsage) {
+  const nlohmann::json dump = nlohmann::json::parse(ConfigToJson(ServiceConfig{}));
+  const std::string usage = UsageText();
+  std::set<std::string> keys, envs, flags;
+  for (const Setting& s : Settings()) {
+    const std::string key = std::string(s.section) + "." + s.key;
+    SCOPED_TRACE(key);
+    EXPECT_TRUE(keys.insert(key).second);
+    EXPECT_TRUE(dump.at(s.section).contains(s.key));
+    EXPECT_LE(s.min, s.max);
+    EXPECT_NE(std::string(s.help), "");
+    if (s.env != nullptr) {
+      EXPECT_TRUE(envs.insert(s.env).second);
+      EXPECT_NE(usage.find(s.env), std::string::npos);
+    }
+    if (s.flag != nullptr) {
+      EXPECT_TRUE(flags.insert(s.flag).second);
+      EXPECT_NE(usage.find(s.flag), std::string::npos);
+    }
+  }
+  EXPECT_EQ(SettingOf("server", "port").env, std::string("SOFTGRASP_PORT"));
+  EXPECT_THROW(SettingOf("server", "nope"), std::invalid_argument);
+}
+
+TEST(ConfigTable, TheDefaultsReadBackThroughTheFile) {
+  nlohmann::json dump = nlohmann::json::parse(ConfigToJson(ServiceConfig{}));
+  dump["robot"].erase("tokens_configured");  // dump-only
+  auto c = ApplyConfigJson(ServiceConfig{}, dump.dump());
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_EQ(ConfigToJson(c.value()), ConfigToJson(ServiceConfig{}));
+}
+
+TEST(ConfigTable, OneSetOfLimitsWhereverAValueComesFrom) {
+  const Setting steps = SettingOf("fge", "num_height_steps");
+  EXPECT_EQ(steps.max, core::kMaxHeightSteps);  // what the planner accepts
+  EXPECT_TRUE(ApplyConfigJson({}, R"({"fge": {"num_height_steps": 40}})").ok());
+  EXPECT_EQ(ApplyConfigJson({}, R"({"fge": {"num_height_steps": 41}})").error().field,
+            "fge.num_height_steps");
+  ::setenv("SOFTGRASP_MIN_DEPTH_M", "101", 1);
+  auto env = ApplyEnvironment(ServiceConfig{});
+  ::unsetenv("SOFTGRASP_MIN_DEPTH_M");
+  ASSERT_FALSE(env.ok());
+  EXPECT_EQ(env.error().field, "SOFTGRASP_MIN_DEPTH_M");
+  EXPECT_NE(env.error().message.find("[0, 100]"), std::string::npos) << env.error().message;
+  auto flag = ParseCommandLine({"--workers", "0"});
+  ASSERT_FALSE(flag.ok());
+  EXPECT_EQ(flag.error().field, "--workers");
+  EXPECT_NE(flag.error().message.find("[1, 256]"), std::string::npos) << flag.error().message;
+  EXPECT_FALSE(ParseCommandLine({"--port", "80x"}).ok());
+}
+
 }  // namespace
-}  // namespace softgrasp::rest
+}  // namespace softgrasp::config
