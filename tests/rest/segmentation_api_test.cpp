@@ -607,7 +607,7 @@ TEST(SegmentationApiModelTest, DeformabilityStrategyGraspsOneTarget) {
   }
 }
 
-// The default strategy with the shipped models on every real frame in ../shared/data: always
+// The default strategy with the shipped models on every real frame in tests/data: always
 // grasps (on one target, or from the whole-scene fallback when no confident object gives one),
 // each with its deformability record; the whole request within the 250 ms budget is a benchmark
 // (grasps_api_bench), not asserted here.
@@ -621,8 +621,8 @@ TEST(SegmentationApiModelTest, DeformabilityAnswersGraspsOnEveryRealFrame) {
            {"gqcnn/phoxi/clutter_depth_0.npy", "gqcnn/phoxi/phoxi.intr"}}) {
     SCOPED_TRACE(frame);
     const json body = ParseOk(server.Send(MultipartRequest(
-        "/v1/grasps", {{"depth", testing::ReadFileBytes(testing::SharedData(frame)), "d.npy"},
-                       {"intrinsics", testing::ReadFileBytes(testing::SharedData(intr)), "c.intr"}})));
+        "/v1/grasps", {{"depth", testing::ReadFileBytes(testing::TestData(frame)), "d.npy"},
+                       {"intrinsics", testing::ReadFileBytes(testing::TestData(intr)), "c.intr"}})));
     EXPECT_EQ(body["strategy"], "deformability");
     ASSERT_FALSE(body["grasps"].empty()) << body.dump();
     const bool fallback = body["target"]["fallback"];

@@ -22,6 +22,7 @@
 #include "service/http/server.h"
 #include "service/rest/api.h"
 #include "service/rest/config.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp::rest::testing {
 
@@ -40,9 +41,7 @@ inline std::string ReadFileBytes(const std::string& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-inline std::string SharedData(const std::string& relative) {
-  return std::string(SOFTGRASP_SHARED_DATA_DIR) + "/" + relative;
-}
+using softgrasp::testing::TestData;  // tests/data, the real frames kept with the tests
 
 /// Sends raw bytes, reads one response (Content-Length framed) and closes.
 inline HttpReply Exchange(uint16_t port, const std::string& raw) {

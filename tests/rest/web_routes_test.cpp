@@ -162,7 +162,7 @@ TEST(WebRootTest, DefaultIsNextToTheExecutable) {
 TEST(GraspPictureTest, DrawNoneIsTheColourMappedDepthAlone) {
   testing::RunningServer server;
   const std::string npy =
-      testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy"));
+      testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy"));
   const auto plain = server.Send(testing::MultipartRequest(
       "/v1/grasps?format=png", {{"depth", npy, "d.npy"}, {"draw", "none", ""}}));
   const auto drawn = server.Send(testing::MultipartRequest(

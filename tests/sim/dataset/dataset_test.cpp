@@ -11,6 +11,7 @@
 
 #include "sim/dataset/user_objects.h"
 #include "sim/render/render.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -417,11 +418,11 @@ TEST(UserObjects, JoinTheSceneDraw) {
 namespace softgrasp::sim {
 namespace {
 
-// A real mesh exported as a triangle soup (Dex-Net bar clamp, ../shared/data): welded, it is a
+// A real mesh exported as a triangle soup (Dex-Net bar clamp, tests/data): welded, it is a
 // closed solid and joins the catalogue as a user object.
 TEST(UserObjects, WeldsARealTriangleSoupIntoAClosedSolid) {
   UserObjectSpec spec;
-  spec.mesh_path = std::string(SOFTGRASP_SHARED_DATA_DIR) + "/meshes/dexnet_bar_clamp.obj";
+  spec.mesh_path = testing::TestData("meshes/dexnet_bar_clamp.obj");
   spec.stiffness = 0.8f;
   auto object = LoadUserObject(spec);
   ASSERT_TRUE(object.ok()) << object.error().message;
@@ -504,8 +505,7 @@ TEST(SimCli, CameraHeightAndIntrinsicsAreConfigurable) {
       std::filesystem::path(::testing::TempDir()) / "softgrasp_cli_camera";
   std::filesystem::remove_all(out);
   const std::string exe = SOFTGRASP_SIM_EXE;
-  const std::string intr =
-      std::string(SOFTGRASP_SHARED_DATA_DIR) + "/gqcnn/primesense/primesense.intr";
+  const std::string intr = testing::TestData("gqcnn/primesense/primesense.intr");
   const std::string args =
       " generate --scenes 1 --seed 3 --objects 1 --noise off --camera-height 0.7"
       " --intrinsics " +
