@@ -24,6 +24,7 @@
 #include "service/models/segmentation_model.h"
 #include "tests/rest/server_fixture.h"
 #include "tests/support/synthetic_scene.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::rest {
 namespace {
@@ -447,9 +448,8 @@ TEST(SegmentationModelConfigTest, FileEnvironmentAndFlagSetTheModel) {
 
 TEST(SegmentationModelConfigTest, DefaultIsTheShippedModelNextToTheExecutableElseNone) {
   namespace fs = std::filesystem;
-  char pattern[] = "/tmp/softgrasp-segmentation-models-XXXXXX";
-  ASSERT_NE(::mkdtemp(pattern), nullptr);
-  const fs::path prefix = pattern;
+  const softgrasp::testing::TempDir temp("segmentation-models");
+  const fs::path& prefix = temp.path();
   const auto touch = [](const fs::path& file) {
     fs::create_directories(file.parent_path());
     std::ofstream(file) << "x";
@@ -463,7 +463,6 @@ TEST(SegmentationModelConfigTest, DefaultIsTheShippedModelNextToTheExecutableEls
   touch(prefix / "models" / "segmentation.pt");
   EXPECT_EQ(DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()),
             (prefix / "models" / "segmentation.pt").string());
-  fs::remove_all(prefix);
 }
 
 // ---- with a segmentation model, when one exists (never a made-up one) ----

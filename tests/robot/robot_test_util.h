@@ -6,35 +6,18 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <atomic>
-#include <filesystem>
 #include <memory>
 #include <string>
-#include <thread>
 
 #include "service/bridge/bridge.h"
 #include "tests/bridge/bridge_test_util.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::robot::testing {
 
 using bridge::testing::TestOptions;
 using bridge::testing::WaitUntil;
-
-/// A fresh folder under /tmp, removed at the end.
-class TempDir {
- public:
-  explicit TempDir(const std::string& name)
-      : path_(std::filesystem::temp_directory_path() /
-              ("softgrasp-" + name + "-" + std::to_string(::getpid()))) {
-    std::filesystem::remove_all(path_);
-  }
-  ~TempDir() { std::filesystem::remove_all(path_); }
-  std::string str() const { return path_.string(); }
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
+using softgrasp::testing::TempDir;  // a fresh journal folder per test
 
 inline std::unique_ptr<bridge::ServiceBridge> MakeServiceBridge() {
   auto service = bridge::ServiceBridge::Create(TestOptions());
