@@ -29,7 +29,7 @@ function(softgrasp_add_test)
   target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} GTest::gtest GTest::gmock GTest::gtest_main softgrasp::options)
   target_compile_definitions(${T_NAME} PRIVATE
     SOFTGRASP_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-    SOFTGRASP_SHARED_DATA_DIR="${PROJECT_SOURCE_DIR}/../shared/data")
+    SOFTGRASP_TEST_DATA_DIR="${PROJECT_SOURCE_DIR}/tests/data")
   gtest_discover_tests(${T_NAME} PROPERTIES TIMEOUT ${T_TIMEOUT} LABELS "${T_LABELS}"
                        DISCOVERY_TIMEOUT 60)
 endfunction()

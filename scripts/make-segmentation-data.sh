@@ -8,8 +8,7 @@ set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="${1:?usage: make-segmentation-data.sh OUT_DIR}"
 sim="${SOFTGRASP_SIM:-$root/build/sim/softgrasp-sim}"
-prime="$root/tests/data/gqcnn/primesense.intr"
-[ -f "$prime" ] || prime="$root/../shared/data/gqcnn/primesense/primesense.intr"
+prime="$root/tests/data/gqcnn/primesense/primesense.intr"
 
 gen() {  # NAME ARGS...: one set, skipped when it is already complete
   local name="$1"; shift

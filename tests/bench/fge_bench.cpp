@@ -12,6 +12,7 @@
 #include "service/core/fge_geometry.h"
 #include "service/core/preprocess.h"
 #include "tests/support/synthetic_scene.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp {
 namespace {
@@ -39,8 +40,8 @@ const Frame& Clutter() {
 
 const Frame& Primesense() {
   static const Frame frame = [] {
-    core::DepthImage depth{testing::LoadNpyFloat32(
-        SOFTGRASP_SHARED_DATA_DIR "/gqcnn/primesense/single_depth_0.npy")};
+    core::DepthImage depth{
+        testing::LoadNpyFloat32(testing::TestData("gqcnn/primesense/single_depth_0.npy"))};
     return Prepared(depth, core::Camera{525.0, 525.0, 319.5, 239.5, 640, 480});
   }();
   return frame;
@@ -49,7 +50,7 @@ const Frame& Primesense() {
 const Frame& Phoxi() {
   static const Frame frame = [] {
     core::DepthImage depth{
-        testing::LoadNpyFloat32(SOFTGRASP_SHARED_DATA_DIR "/gqcnn/phoxi/clutter_depth_0.npy")};
+        testing::LoadNpyFloat32(testing::TestData("gqcnn/phoxi/clutter_depth_0.npy"))};
     return Prepared(depth, core::Camera{552.5, 552.5, 255.5, 191.75, 516, 386});
   }();
   return frame;

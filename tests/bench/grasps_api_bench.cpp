@@ -33,8 +33,8 @@ testing::RunningServer& ServerWithBothModels() {
 std::string PrimesenseUpload(const std::string& target,
                              std::vector<testing::FormPart> fields = {}) {
   std::vector<testing::FormPart> parts = {
-      {"depth", testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")), "d.npy"},
-      {"intrinsics", testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")), "p.intr"}};
+      {"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")), "d.npy"},
+      {"intrinsics", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")), "p.intr"}};
   parts.insert(parts.end(), fields.begin(), fields.end());
   return testing::MultipartRequest(target, parts);
 }

@@ -19,6 +19,7 @@
 #include "service/models/network.h"
 #include "service/models/stiffness_model.h"
 #include "tests/support/synthetic_scene.h"
+#include "tests/support/temp_dir.h"
 
 namespace {
 
@@ -44,8 +45,8 @@ Fixture& Get() {
       models::UNetGenerator g(config);
       models::InitWeights(*g);
       g->eval();
-      path = std::filesystem::temp_directory_path() /
-             ("stiffness_bench_" + std::to_string(::getpid()) + ".pt");
+      static const testing::TempDir scratch("stiffness-bench");  // removed at exit
+      path = scratch / "untrained.pt";
       models::SaveGenerator(path, g, config, models::kInputHeightRangeM);
     }
     auto m = models::StiffnessModel::Load(path);

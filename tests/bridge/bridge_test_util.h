@@ -4,12 +4,11 @@
 
 #include <unistd.h>
 
-#include <chrono>
 #include <cmath>
 #include <string>
-#include <thread>
 
 #include "service/bridge/bridge.h"
+#include "tests/support/wait_until.h"
 
 namespace softgrasp::bridge::testing {
 
@@ -25,19 +24,7 @@ inline BridgeOptions TestOptions() {
   return options;
 }
 
-/// Polls `done` every 10 ms until it holds or `timeout_s` passes; returns the seconds waited, or
-/// a negative number on timeout.
-template <class Pred>
-double WaitUntil(Pred&& done, double timeout_s) {
-  const auto start = std::chrono::steady_clock::now();
-  for (;;) {
-    const double waited =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (done()) return waited;
-    if (waited > timeout_s) return -1.0;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-}
+using softgrasp::testing::WaitUntil;
 
 inline GraspCommand MakeCommand(const std::string& id, const std::string& robot_id = "") {
   GraspCommand c;

@@ -8,12 +8,13 @@
 #include "service/core/preprocess.h"
 #include "tests/support/grasp_footprint.h"
 #include "tests/support/synthetic_scene.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp::core {
 namespace {
 
 constexpr double kFingerHeightTolM = 0.002;  // fingers may touch surfaces this much above the tips
-const std::string kData = SOFTGRASP_SHARED_DATA_DIR "/gqcnn";
+const std::string kData = testing::TestData("gqcnn");
 
 Camera Primesense() { return Camera{525.0, 525.0, 319.5, 239.5, 640, 480}; }
 Camera Phoxi() { return Camera{552.5, 552.5, 255.5, 191.75, 516, 386}; }

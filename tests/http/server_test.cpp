@@ -1,7 +1,5 @@
 #include "service/http/server.h"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -21,125 +19,16 @@
 #include <thread>
 #include <vector>
 
+#include "tests/support/http_client.h"
+
 namespace softgrasp::http {
 namespace {
 
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
-// ---- a minimal blocking client over plain POSIX sockets ----
-
-struct ClientResponse {
-  int status = 0;
-  Headers headers;
-  std::string body;
-  std::optional<std::string_view> header(std::string_view name) const {
-    return FindHeader(headers, name);
-  }
-  nlohmann::json json() const { return nlohmann::json::parse(body); }
-};
-
-class Client {
- public:
-  /// Connects to 127.0.0.1:`port`, from `source_ip` (another loopback address) when given.
-  explicit Client(uint16_t port, const char* source_ip = nullptr) {
-    fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd_ < 0) throw std::runtime_error("socket");
-    timeval tv{5, 0};  // no test ever blocks forever on a read
-    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-    if (source_ip != nullptr) {
-      sockaddr_in source{};
-      source.sin_family = AF_INET;
-      ::inet_pton(AF_INET, source_ip, &source.sin_addr);
-      if (::bind(fd_, reinterpret_cast<const sockaddr*>(&source), sizeof source) != 0) {
-        ::close(fd_);
-        throw std::runtime_error("bind to the source address failed");
-      }
-    }
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(port);
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (::connect(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
-      ::close(fd_);
-      throw std::runtime_error("connect failed");
-    }
-  }
-  ~Client() { Close(); }
-  Client(const Client&) = delete;
-  Client& operator=(const Client&) = delete;
-
-  int fd() const { return fd_; }
-  void Close() {
-    if (fd_ >= 0) ::close(fd_);
-    fd_ = -1;
-  }
-
-  void Send(std::string_view bytes) {
-    while (!bytes.empty()) {
-      const ssize_t n = ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL);
-      if (n <= 0) throw std::runtime_error("send failed");
-      bytes.remove_prefix(static_cast<std::size_t>(n));
-    }
-  }
-
-  /// Reads one response; the body is read by Content-Length unless `head`. nullopt on EOF/timeout.
-  std::optional<ClientResponse> Read(bool head = false) {
-    std::size_t end;
-    while ((end = buffer_.find("\r\n\r\n")) == std::string::npos) {
-      if (!Fill()) return std::nullopt;
-    }
-    ClientResponse response;
-    const std::string head_block = buffer_.substr(0, end);
-    buffer_.erase(0, end + 4);
-    std::size_t line_end = head_block.find("\r\n");
-    const std::string status_line = head_block.substr(0, line_end);
-    response.status = std::stoi(status_line.substr(9, 3));
-    while (line_end != std::string::npos) {
-      const std::size_t start = line_end + 2;
-      line_end = head_block.find("\r\n", start);
-      const std::string line = head_block.substr(start, line_end - start);
-      const std::size_t colon = line.find(':');
-      response.headers.emplace_back(line.substr(0, colon), line.substr(colon + 2));
-    }
-    std::size_t length = 0;
-    if (const auto cl = response.header("Content-Length"); cl && !head) {
-      length = std::stoul(std::string(*cl));
-    }
-    while (buffer_.size() < length) {
-      if (!Fill()) return std::nullopt;
-    }
-    response.body = buffer_.substr(0, length);
-    buffer_.erase(0, length);
-    return response;
-  }
-
-  /// Reads everything until the server closes (true) or the timeout (false).
-  bool ReadUntilClosed(std::string* rest = nullptr) {
-    while (Fill()) {
-    }
-    if (rest != nullptr) *rest = buffer_;
-    return closed_;
-  }
-
-  std::string& buffer() { return buffer_; }
-
- private:
-  bool Fill() {
-    char chunk[4096];
-    const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
-    if (n <= 0) {
-      closed_ = n == 0 || errno == ECONNRESET;
-      return false;
-    }
-    buffer_.append(chunk, static_cast<std::size_t>(n));
-    return true;
-  }
-
-  int fd_ = -1;
-  std::string buffer_;
-  bool closed_ = false;
-};
+using softgrasp::testing::HttpClient;
+using softgrasp::testing::HttpReply;
 
 bool AllDigits(const std::string& s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
@@ -264,7 +153,7 @@ class HttpServer : public ::testing::Test {
 
 TEST_F(HttpServer, KeepAliveServesTwoRequestsOnOneConnection) {
   auto server = StartServer(Options());
-  Client client(server->port());
+  HttpClient client(server->port());
   for (const char* path : {"/first", "/second"}) {
     client.Send(Get(path));
     const auto response = client.Read();
@@ -281,7 +170,7 @@ TEST_F(HttpServer, KeepAliveServesTwoRequestsOnOneConnection) {
 
 TEST_F(HttpServer, ConnectionCloseIsHonoured) {
   auto server = StartServer(Options());
-  Client client(server->port());
+  HttpClient client(server->port());
   client.Send(Get("/x", "Connection: close\r\n"));
   const auto response = client.Read();
   ASSERT_TRUE(response.has_value());
@@ -293,7 +182,7 @@ TEST_F(HttpServer, PipelinedRequestsAreAnsweredInOrder) {
   ServerOptions options = Options();
   options.num_workers = 4;
   auto server = StartServer(options);
-  Client client(server->port());
+  HttpClient client(server->port());
   client.Send(Get("/slow") + Get("/b") + "POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: 3\r\n\r\nxyz" +
               Get("/d", "Connection: close\r\n"));
   const auto a = client.Read();
@@ -313,7 +202,7 @@ TEST_F(HttpServer, HandlerExceptionIs500AndServingGoesOn) {
   LogSink errors;
   options.error_log = errors.Callback();
   auto server = StartServer(options);
-  Client client(server->port());
+  HttpClient client(server->port());
   client.Send(Get("/boom", "X-Request-Id: boom-1\r\n"));
   const auto failed = client.Read();
   ASSERT_TRUE(failed.has_value());
@@ -330,7 +219,7 @@ TEST_F(HttpServer, HandlerExceptionIs500AndServingGoesOn) {
   const auto after = client.Read();
   ASSERT_TRUE(after.has_value());
   EXPECT_EQ(after->status, 200);
-  Client other(server->port());
+  HttpClient other(server->port());
   other.Send(Get("/other"));
   ASSERT_TRUE(other.Read().has_value());
 }
@@ -339,7 +228,7 @@ TEST_F(HttpServer, SlowClientGets408AndIsClosed) {
   ServerOptions options = Options();
   options.header_timeout_ms = 200;
   auto server = StartServer(options);
-  Client client(server->port());
+  HttpClient client(server->port());
   const auto start = Clock::now();
   client.Send("GET /slowloris HTTP/1.1\r\nHost: t\r\n");  // never finished
   const auto response = client.Read();
@@ -360,7 +249,7 @@ TEST_F(HttpServer, IdleKeepAliveConnectionIsClosedSilently) {
   ServerOptions options = Options();
   options.keep_alive_timeout_ms = 150;
   auto server = StartServer(options);
-  Client client(server->port());
+  HttpClient client(server->port());
   client.Send(Get("/once"));
   ASSERT_TRUE(client.Read().has_value());
   const auto start = Clock::now();
@@ -378,19 +267,19 @@ TEST_F(HttpServer, FullQueueIs503WithRetryAfterWithoutRunningTheHandler) {
   options.retry_after_s = 7;
   auto server = StartServer(options);
 
-  Client busy(server->port());
+  HttpClient busy(server->port());
   busy.Send(Get("/block"));
   ASSERT_TRUE(entered_.WaitFor(5s));  // the only worker is now blocked
 
   // One of these is queued, the other finds the queue full.
-  Client b(server->port());
-  Client c(server->port());
+  HttpClient b(server->port());
+  HttpClient c(server->port());
   b.Send(Get("/queued"));
   c.Send(Get("/queued"));
   pollfd fds[2] = {{b.fd(), POLLIN, 0}, {c.fd(), POLLIN, 0}};
   ASSERT_EQ(::poll(fds, 2, 5000), 1);  // exactly one answer while the worker is blocked
-  Client& rejected = (fds[0].revents != 0) ? b : c;
-  Client& queued = (fds[0].revents != 0) ? c : b;
+  HttpClient& rejected = (fds[0].revents != 0) ? b : c;
+  HttpClient& queued = (fds[0].revents != 0) ? c : b;
   const auto unavailable = rejected.Read();
   ASSERT_TRUE(unavailable.has_value());
   EXPECT_EQ(unavailable->status, 503);
@@ -413,11 +302,11 @@ TEST_F(HttpServer, ConnectionsOverTheCapGet503) {
   ServerOptions options = Options();
   options.max_connections = 1;
   auto server = StartServer(options);
-  auto first = std::make_unique<Client>(server->port());
+  auto first = std::make_unique<HttpClient>(server->port());
   first->Send(Get("/hold"));
   ASSERT_TRUE(first->Read().has_value());  // accepted and counted
 
-  Client second(server->port());
+  HttpClient second(server->port());
   const auto response = second.Read();
   ASSERT_TRUE(response.has_value());
   EXPECT_EQ(response->status, 503);
@@ -425,10 +314,10 @@ TEST_F(HttpServer, ConnectionsOverTheCapGet503) {
   EXPECT_TRUE(second.ReadUntilClosed());
 
   first.reset();  // frees the slot
-  std::optional<ClientResponse> later;
+  std::optional<HttpReply> later;
   for (int attempt = 0; attempt < 50 && !(later && later->status == 200); ++attempt) {
     std::this_thread::sleep_for(20ms);
-    Client third(server->port());
+    HttpClient third(server->port());
     third.Send(Get("/later"));
     later = third.Read();
   }
@@ -441,7 +330,7 @@ TEST_F(HttpServer, HeaderLinesTrickledInGet408AtTheHeaderDeadline) {
   options.header_timeout_ms = 300;
   options.body_timeout_ms = 60'000;
   auto server = StartServer(options);
-  Client client(server->port());
+  HttpClient client(server->port());
   const auto start = Clock::now();
   client.Send("GET /slowloris HTTP/1.1\r\n");
   // A header line every 50 ms: the connection is never silent, but the block never ends.
@@ -466,7 +355,7 @@ TEST_F(HttpServer, BodyHasItsOwnDeadlineAfterTheHeaders) {
   auto server = StartServer(options);
 
   // Headers in time, body later than the header deadline but within the body's: served.
-  Client patient(server->port());
+  HttpClient patient(server->port());
   patient.Send("POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: 10\r\n\r\nhello");
   std::this_thread::sleep_for(400ms);
   patient.Send("world");
@@ -476,7 +365,7 @@ TEST_F(HttpServer, BodyHasItsOwnDeadlineAfterTheHeaders) {
   EXPECT_EQ(served->body, "helloworld");
 
   // A body that stops arriving: 408 at the body deadline, naming the body.
-  Client stalled(server->port());
+  HttpClient stalled(server->port());
   const auto start = Clock::now();
   stalled.Send("POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: 10\r\n\r\nhel");
   const auto timed_out = stalled.Read();
@@ -492,20 +381,21 @@ TEST_F(HttpServer, PerClientCapRefusesOnlyThatAddress) {
   ServerOptions options = Options();
   options.max_connections_per_client = 2;
   auto server = StartServer(options);
-  Client a(server->port());
-  Client b(server->port());
-  for (Client* held : {&a, &b}) {
+  HttpClient a(server->port());
+  HttpClient b(server->port());
+  for (HttpClient* held : {&a, &b}) {
     held->Send(Get("/hold"));
     ASSERT_TRUE(held->Read().has_value());  // accepted and counted
   }
-  Client third(server->port());
+  HttpClient third(server->port());
   const auto refused = third.Read();
   ASSERT_TRUE(refused.has_value());
   EXPECT_EQ(refused->status, 503);
   EXPECT_NE(refused->json()["error"]["message"].get<std::string>().find("this address"),
             std::string::npos);
 
-  Client elsewhere(server->port(), "127.0.0.2");  // another client address: its own budget
+  // Another client address: its own budget.
+  HttpClient elsewhere(server->port(), {.source_ip = "127.0.0.2"});
   elsewhere.Send(Get("/other"));
   const auto served = elsewhere.Read();
   ASSERT_TRUE(served.has_value());
@@ -518,14 +408,14 @@ TEST_F(HttpServer, InlineRoutesAnswerWhileEveryWorkerIsBusy) {
   options.queue_capacity = 1;
   options.answer_inline = [](const Request& request) { return request.path == "/healthz"; };
   auto server = StartServer(options);
-  Client busy(server->port());
+  HttpClient busy(server->port());
   busy.Send(Get("/block"));
   ASSERT_TRUE(entered_.WaitFor(5s));  // the only worker is blocked
-  Client queued(server->port());
+  HttpClient queued(server->port());
   queued.Send(Get("/queued"));  // fills the queue
 
   // Three health checks on one keep-alive connection, pipelined, while the worker is blocked.
-  Client health(server->port());
+  HttpClient health(server->port());
   health.Send(Get("/healthz") + Get("/healthz") + Get("/healthz"));
   for (int i = 0; i < 3; ++i) {
     const auto response = health.Read();
@@ -553,9 +443,9 @@ TEST_F(HttpServer, AThousandSlowClientsDoNotLockOthersOut) {
   options.answer_inline = [](const Request& request) { return request.path == "/healthz"; };
   auto server = StartServer(options);
 
-  std::vector<std::unique_ptr<Client>> slow;
+  std::vector<std::unique_ptr<HttpClient>> slow;
   for (int i = 0; i < kSlowClients; ++i) {
-    slow.push_back(std::make_unique<Client>(server->port()));
+    slow.push_back(std::make_unique<HttpClient>(server->port()));
     slow.back()->Send("GET /never-finished HTTP/1.1\r\nHost: t\r\n");
   }
   // A header line on every slow socket now and then, with health checks on fresh connections in
@@ -564,7 +454,7 @@ TEST_F(HttpServer, AThousandSlowClientsDoNotLockOthersOut) {
     for (int i = 0; i < kSlowClients; ++i) {
       slow[static_cast<std::size_t>(i)]->Send("X-Round: " + std::to_string(round) + "\r\n");
     }
-    Client health(server->port());
+    HttpClient health(server->port());
     health.Send(Get("/healthz"));
     const auto response = health.Read();
     ASSERT_TRUE(response.has_value()) << "round " << round;
@@ -578,13 +468,13 @@ TEST_F(HttpServer, AThousandSlowClientsDoNotLockOthersOut) {
 
 TEST_F(HttpServer, StopLetsAnInFlightRequestFinish) {
   auto server = StartServer(Options());
-  Client idle(server->port());
+  HttpClient idle(server->port());
   idle.Send(Get("/warm-up"));
   ASSERT_TRUE(idle.Read().has_value());
 
   const uint16_t port = server->port();
   auto in_flight = std::async(std::launch::async, [port] {
-    Client client(port);
+    HttpClient client(port);
     client.Send(Get("/slow"));
     auto response = client.Read();
     client.ReadUntilClosed();
@@ -598,13 +488,13 @@ TEST_F(HttpServer, StopLetsAnInFlightRequestFinish) {
   EXPECT_EQ(response->status, 200);
   EXPECT_EQ(response->header("Connection"), "close");
   EXPECT_TRUE(idle.ReadUntilClosed());
-  EXPECT_THROW(Client refused(port), std::runtime_error);  // no longer listening
+  EXPECT_THROW(HttpClient refused(port), std::runtime_error);  // no longer listening
   server->Stop();                                           // idempotent
 }
 
 TEST_F(HttpServer, AccessLogHasOneLinePerAnswerAndNoHeaderValues) {
   auto server = StartServer(Options());
-  Client client(server->port());
+  HttpClient client(server->port());
   client.Send(Get("/v1/a%20b?token=secret-query",
                   "X-Request-Id: req-42\r\nAuthorization: Bearer secret-token\r\n"));
   const auto response = client.Read();
@@ -634,7 +524,7 @@ TEST_F(HttpServer, AccessLogHasOneLinePerAnswerAndNoHeaderValues) {
 
 TEST_F(HttpServer, RequestIdIsGeneratedWhenMissingOrUnfit) {
   auto server = StartServer(Options());
-  Client client(server->port());
+  HttpClient client(server->port());
   client.Send(Get("/a") + Get("/b", "X-Request-Id: " + std::string(200, 'x') + "\r\n"));
   const auto a = client.Read();
   const auto b = client.Read();
@@ -648,7 +538,7 @@ TEST_F(HttpServer, RequestIdIsGeneratedWhenMissingOrUnfit) {
 
 TEST_F(HttpServer, HeadGetsHeadersWithoutBody) {
   auto server = StartServer(Options());
-  Client client(server->port());
+  HttpClient client(server->port());
   client.Send("HEAD /thing HTTP/1.1\r\nHost: t\r\n\r\n");
   const auto head = client.Read(/*head=*/true);
   ASSERT_TRUE(head.has_value());
@@ -666,7 +556,7 @@ TEST_F(HttpServer, HeadGetsHeadersWithoutBody) {
 
 TEST_F(HttpServer, ExpectContinueGets100First) {
   auto server = StartServer(Options());
-  Client client(server->port());
+  HttpClient client(server->port());
   client.Send("POST /echo HTTP/1.1\r\nHost: t\r\nExpect: 100-continue\r\nContent-Length: 5\r\n\r\n");
   const auto interim = client.Read();
   ASSERT_TRUE(interim.has_value());
@@ -683,7 +573,7 @@ TEST_F(HttpServer, ProtocolErrorsAreJsonAndClose) {
   options.limits.max_body_bytes = 100;
   auto server = StartServer(options);
   {
-    Client client(server->port());
+    HttpClient client(server->port());
     client.Send("POST /x HTTP/1.1\r\nHost: t\r\nContent-Length: 1000\r\n\r\n");  // body not sent
     const auto response = client.Read();
     ASSERT_TRUE(response.has_value());
@@ -692,7 +582,7 @@ TEST_F(HttpServer, ProtocolErrorsAreJsonAndClose) {
     EXPECT_TRUE(client.ReadUntilClosed());
   }
   {
-    Client client(server->port());
+    HttpClient client(server->port());
     client.Send("GET / HTTP/2.0\r\nHost: t\r\n\r\n" + Get("/never"));
     const auto response = client.Read();
     ASSERT_TRUE(response.has_value());
@@ -707,7 +597,7 @@ TEST_F(HttpServer, OversizedUploadGets413WhileTheClientIsStillSending) {
   ServerOptions options = Options();
   options.limits.max_body_bytes = 1000;
   auto server = StartServer(options);
-  Client client(server->port());
+  HttpClient client(server->port());
   const std::string body(4 << 20, 'x');
   client.Send("POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: " + std::to_string(body.size()) +
               "\r\n\r\n");
@@ -744,21 +634,11 @@ TEST_F(HttpServer, ListensOnIpv6) {
   } catch (const std::runtime_error& e) {
     GTEST_SKIP() << "no IPv6 loopback here: " << e.what();
   }
-  const int fd = ::socket(AF_INET6, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  ASSERT_GE(fd, 0);
-  sockaddr_in6 addr{};
-  addr.sin6_family = AF_INET6;
-  addr.sin6_port = htons(server.port());
-  addr.sin6_addr = in6addr_loopback;
-  ASSERT_EQ(::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);
-  const std::string request = Get("/v6", "Connection: close\r\n");
-  ASSERT_EQ(::send(fd, request.data(), request.size(), MSG_NOSIGNAL),
-            static_cast<ssize_t>(request.size()));
-  char buf[512];
-  const ssize_t n = ::recv(fd, buf, sizeof buf, MSG_WAITALL);
-  ::close(fd);
-  ASSERT_GT(n, 12);
-  EXPECT_EQ(std::string(buf, 12), "HTTP/1.1 200");
+  HttpClient client(server.port(), {.host = "::1"});
+  client.Send(Get("/v6", "Connection: close\r\n"));
+  const auto response = client.Read();
+  ASSERT_TRUE(response.has_value());
+  EXPECT_EQ(response->status, 200);
 }
 
 TEST_F(HttpServer, DestructorStopsARunningServer) {
@@ -766,11 +646,11 @@ TEST_F(HttpServer, DestructorStopsARunningServer) {
   {
     auto server = StartServer(Options());
     port = server->port();
-    Client client(port);
+    HttpClient client(port);
     client.Send(Get("/x"));
     ASSERT_TRUE(client.Read().has_value());
   }
-  EXPECT_THROW(Client refused(port), std::runtime_error);
+  EXPECT_THROW(HttpClient refused(port), std::runtime_error);
 }
 
 }  // namespace

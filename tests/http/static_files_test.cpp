@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "service/http/router.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::http {
 namespace {
@@ -43,9 +44,7 @@ void ExpectNotFoundJson(const Response& response) {
 class StaticFilesTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    char pattern[] = "/tmp/softgrasp-static-XXXXXX";
-    ASSERT_NE(::mkdtemp(pattern), nullptr);
-    sandbox_ = pattern;
+    sandbox_ = temp_.path();
     root_ = sandbox_ / "web";
     WriteFile(root_ / "index.html", "<!doctype html><title>t</title>");
     WriteFile(root_ / "assets" / "app-3KX7Q2ZB.js", "console.log(1);");
@@ -55,7 +54,6 @@ class StaticFilesTest : public ::testing::Test {
     WriteFile(sandbox_ / "secret.txt", "secret");
     files_ = std::make_unique<StaticFiles>(StaticFilesOptions{root_.string()});
   }
-  void TearDown() override { fs::remove_all(sandbox_); }
 
   Response Get(const std::vector<std::string>& segments, const std::string& if_none_match = "",
                const std::string& method = "GET") {
@@ -64,6 +62,7 @@ class StaticFilesTest : public ::testing::Test {
     return files_->Serve(request, segments);
   }
 
+  softgrasp::testing::TempDir temp_{"static"};
   fs::path sandbox_;
   fs::path root_;
   std::unique_ptr<StaticFiles> files_;

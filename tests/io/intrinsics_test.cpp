@@ -6,9 +6,12 @@
 #include <string>
 
 #include "service/io/depth_codec.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp::io {
 namespace {
+
+using softgrasp::testing::TestData;
 
 using core::ErrorCode;
 
@@ -28,7 +31,7 @@ void ExpectFieldError(const std::string& json, const std::string& field) {
 
 TEST(IntrinsicsTest, ParsesPrimesenseSample) {
   const auto camera =
-      ParseIntrinsicsJson(ReadFile(SOFTGRASP_SHARED_DATA_DIR "/gqcnn/primesense/primesense.intr"));
+      ParseIntrinsicsJson(ReadFile(TestData("gqcnn/primesense/primesense.intr")));
   ASSERT_TRUE(camera.ok()) << camera.error().message;
   EXPECT_DOUBLE_EQ(camera.value().fx, 525.0);
   EXPECT_DOUBLE_EQ(camera.value().fy, 525.0);
@@ -39,8 +42,7 @@ TEST(IntrinsicsTest, ParsesPrimesenseSample) {
 }
 
 TEST(IntrinsicsTest, ParsesPhoxiSample) {
-  const auto camera =
-      ParseIntrinsicsJson(ReadFile(SOFTGRASP_SHARED_DATA_DIR "/gqcnn/phoxi/phoxi.intr"));
+  const auto camera = ParseIntrinsicsJson(ReadFile(TestData("gqcnn/phoxi/phoxi.intr")));
   ASSERT_TRUE(camera.ok()) << camera.error().message;
   EXPECT_DOUBLE_EQ(camera.value().fx, 552.5);
   EXPECT_DOUBLE_EQ(camera.value().fy, 552.5);

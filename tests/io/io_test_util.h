@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "service/io/depth_codec.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::io::test {
 
@@ -117,8 +118,8 @@ inline void PatchTiffTag(std::string& tiff, std::uint16_t tag, std::uint32_t val
 /// A float TIFF written by libtiff itself ("wb" big-endian, "wl" little), optionally tiled 16x16.
 inline std::string WriteTiffWithLibtiff(const cv::Mat1f& image, const char* mode, bool tiled,
                                         std::uint16_t compression) {
-  const auto path = std::filesystem::temp_directory_path() /
-                    ("softgrasp_io_test_" + std::to_string(::getpid()) + ".tiff");
+  const softgrasp::testing::TempDir temp("io-test");
+  const auto path = temp / "libtiff.tiff";
   TIFF* tif = TIFFOpen(path.c_str(), mode);
   EXPECT_NE(tif, nullptr);
   if (!tif) return {};
@@ -153,9 +154,7 @@ inline std::string WriteTiffWithLibtiff(const cv::Mat1f& image, const char* mode
     }
   }
   TIFFClose(tif);
-  std::string bytes = ReadFile(path);
-  std::filesystem::remove(path);
-  return bytes;
+  return ReadFile(path);
 }
 
 /// Depth rising along the rows from 0.5 m, with a 0 (missing) top-left and a NaN bottom-right.

@@ -11,9 +11,12 @@
 
 #include "service/io/depth_codec.h"
 #include "tests/io/io_test_util.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp::io {
 namespace {
+
+using softgrasp::testing::TestData;
 
 using core::ErrorCode;
 using test::ExpectError;
@@ -176,8 +179,7 @@ TEST(NpyTest, RejectsUnknownVersion) {
 }
 
 TEST(NpyTest, DecodesPrimesenseSample) {
-  const auto result =
-      DecodeDepth(ReadFile(SOFTGRASP_SHARED_DATA_DIR "/gqcnn/primesense/single_depth_0.npy"));
+  const auto result = DecodeDepth(ReadFile(TestData("gqcnn/primesense/single_depth_0.npy")));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const cv::Mat1f& d = result.value().depth_m;
   EXPECT_EQ(d.rows, 480);
@@ -193,8 +195,7 @@ TEST(NpyTest, DecodesPrimesenseSample) {
 }
 
 TEST(NpyTest, DecodesPhoxiSampleWithMissingPixels) {
-  const auto result =
-      DecodeDepth(ReadFile(SOFTGRASP_SHARED_DATA_DIR "/gqcnn/phoxi/clutter_depth_0.npy"));
+  const auto result = DecodeDepth(ReadFile(TestData("gqcnn/phoxi/clutter_depth_0.npy")));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const cv::Mat1f& d = result.value().depth_m;
   EXPECT_EQ(d.rows, 386);

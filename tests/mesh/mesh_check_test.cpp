@@ -12,19 +12,20 @@
 
 #include "tests/mesh/brute_force_intersections.h"
 #include "tests/mesh/mesh_test_util.h"
+#include "tests/support/box_mesh.h"
 
 namespace softgrasp::mesh {
 namespace {
 
+using softgrasp::testing::BoxMesh;
 using testing::BruteForceSelfIntersections;
-using testing::MakeCube;
 using testing::MakeOctahedron;
 using testing::MakeTetrahedron;
 using testing::MakeTorus;
 using testing::Merge;
 
 TEST(MeshCheckTest, CubePasses) {
-  const MeshReport r = CheckMesh(MakeCube({0, 0, 0}, 2.0));
+  const MeshReport r = CheckMesh(BoxMesh({0, 0, 0}, {2, 2, 2}));
   EXPECT_TRUE(r.ok()) << (r.problems.empty() ? "" : r.problems.front());
   EXPECT_TRUE(r.indices_valid);
   EXPECT_TRUE(r.closed);
@@ -52,7 +53,7 @@ TEST(MeshCheckTest, TetrahedronAndTorusPass) {
 }
 
 TEST(MeshCheckTest, CubeWithAFaceRemovedIsNotClosed) {
-  TriangleMesh m = MakeCube();
+  TriangleMesh m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.faces.erase(m.faces.begin(), m.faces.begin() + 2);  // the bottom square
   const MeshReport r = CheckMesh(m);
   EXPECT_FALSE(r.ok());
@@ -65,7 +66,8 @@ TEST(MeshCheckTest, CubeWithAFaceRemovedIsNotClosed) {
 }
 
 TEST(MeshCheckTest, TwoDisjointCubesAreNotConnected) {
-  const MeshReport r = CheckMesh(Merge(MakeCube(), MakeCube({3, 0, 0})));
+  const MeshReport r =
+      CheckMesh(Merge(BoxMesh({0, 0, 0}, {1, 1, 1}), BoxMesh({3, 0, 0}, {4, 1, 1})));
   EXPECT_FALSE(r.ok());
   EXPECT_FALSE(r.connected);
   EXPECT_EQ(r.num_components, 2);
@@ -77,7 +79,7 @@ TEST(MeshCheckTest, TwoDisjointCubesAreNotConnected) {
 }
 
 TEST(MeshCheckTest, FlippedFaceIsInconsistentlyOriented) {
-  TriangleMesh m = MakeCube();
+  TriangleMesh m = BoxMesh({0, 0, 0}, {1, 1, 1});
   std::swap(m.faces[5][1], m.faces[5][2]);
   const MeshReport r = CheckMesh(m);
   EXPECT_FALSE(r.ok());
@@ -89,7 +91,7 @@ TEST(MeshCheckTest, FlippedFaceIsInconsistentlyOriented) {
 }
 
 TEST(MeshCheckTest, AllFacesFlippedIsInward) {
-  TriangleMesh m = MakeCube();
+  TriangleMesh m = BoxMesh({0, 0, 0}, {1, 1, 1});
   for (auto& f : m.faces) std::swap(f[1], f[2]);
   const MeshReport r = CheckMesh(m);
   EXPECT_TRUE(r.consistently_oriented);
@@ -100,7 +102,7 @@ TEST(MeshCheckTest, AllFacesFlippedIsInward) {
 
 TEST(MeshCheckTest, CubesSharingAVertexAreNotVertexManifold) {
   // Second cube's corner 0 is the first cube's corner 7: one piece, pinched at a vertex.
-  TriangleMesh m = Merge(MakeCube(), MakeCube({1, 1, 1}));
+  TriangleMesh m = Merge(BoxMesh({0, 0, 0}, {1, 1, 1}), BoxMesh({1, 1, 1}, {2, 2, 2}));
   for (auto& f : m.faces) {
     for (int& i : f) {
       if (i == 8) i = 7;
@@ -117,7 +119,7 @@ TEST(MeshCheckTest, CubesSharingAVertexAreNotVertexManifold) {
 
 TEST(MeshCheckTest, CubesSharingAnEdgeAreNotEdgeManifold) {
   // Second cube at (1, 1, 0): shares the edge from corner 3 (1,1,0) to corner 7 (1,1,1).
-  TriangleMesh m = Merge(MakeCube(), MakeCube({1, 1, 0}));
+  TriangleMesh m = Merge(BoxMesh({0, 0, 0}, {1, 1, 1}), BoxMesh({1, 1, 0}, {2, 2, 1}));
   for (auto& f : m.faces) {
     for (int& i : f) {
       if (i == 8) i = 3;
@@ -133,7 +135,7 @@ TEST(MeshCheckTest, CubesSharingAnEdgeAreNotEdgeManifold) {
 }
 
 TEST(MeshCheckTest, BadIndicesAreReportedNotThrown) {
-  TriangleMesh m = MakeCube();
+  TriangleMesh m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.faces[3][1] = 8;
   MeshReport r = CheckMesh(m);
   EXPECT_FALSE(r.indices_valid);
@@ -145,13 +147,13 @@ TEST(MeshCheckTest, BadIndicesAreReportedNotThrown) {
 }
 
 TEST(MeshCheckTest, DegenerateFaceNanVertexAndEmptyMeshFail) {
-  TriangleMesh m = MakeCube();
+  TriangleMesh m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.faces.push_back({1, 1, 2});
   MeshReport r = CheckMesh(m);
   EXPECT_EQ(r.num_degenerate_faces, 1);
   EXPECT_FALSE(r.ok());
 
-  m = MakeCube();
+  m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.vertices[0][0] = std::numeric_limits<double>::quiet_NaN();
   r = CheckMesh(m);
   EXPECT_EQ(r.num_nonfinite_vertices, 1);
@@ -163,7 +165,7 @@ TEST(MeshCheckTest, DegenerateFaceNanVertexAndEmptyMeshFail) {
 }
 
 TEST(MeshCheckTest, ProblemsAreHumanReadable) {
-  TriangleMesh m = MakeCube();
+  TriangleMesh m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.faces.pop_back();
   const MeshReport r = CheckMesh(m);
   ASSERT_FALSE(r.problems.empty());
@@ -198,7 +200,7 @@ void ExpectPairs(const TriangleMesh& m, const Pairs& expected, int collinear = 0
 }
 
 TEST(MeshCheckTest, ValidSolidsDoNotSelfIntersect) {
-  for (const TriangleMesh& m : {MakeCube({0, 0, 0}, 2.0), MakeTetrahedron(), MakeOctahedron(),
+  for (const TriangleMesh& m : {BoxMesh({0, 0, 0}, {2, 2, 2}), MakeTetrahedron(), MakeOctahedron(),
                                 MakeTorus(), MakeTorus(2.0, 1.9, 24, 12)}) {
     const MeshReport r = CheckMesh(m);
     EXPECT_TRUE(r.ok()) << (r.problems.empty() ? "" : r.problems.front());
@@ -269,7 +271,7 @@ TEST(MeshCheckTest, CubeCornerPushedBelowTheBottomFoldsThroughIt) {
   //    shared corner, 7-6 into 7): {1, 3}, {3, 7}, {3, 10};
   //  - faces 6 and 11 contain the bottom edges 2-3 and 1-3 beyond corners 2 and 1: {1, 6},
   //    {1, 11}.
-  TriangleMesh m = MakeCube();
+  TriangleMesh m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.vertices[7] = {1, 1, -0.5};
   const MeshReport r = CheckMesh(m);
   ExpectCombinatoriallyValid(r);
@@ -293,17 +295,18 @@ TEST(MeshCheckTest, CollinearFaceIsReportedAndNotPaired) {
 
 TEST(MeshCheckTest, SelfIntersectionTestRunsOnlyOnMeshesItCanRead) {
   // Bad indices, NaN, non-manifold edges: reported, the test is skipped, nothing throws.
-  TriangleMesh bad = MakeCube();
+  TriangleMesh bad = BoxMesh({0, 0, 0}, {1, 1, 1});
   bad.faces[3][1] = 99;
   MeshReport r = CheckMesh(bad);
   EXPECT_FALSE(r.self_intersections_checked);
   EXPECT_FALSE(r.self_intersection_free);
-  bad = MakeCube();
+  bad = BoxMesh({0, 0, 0}, {1, 1, 1});
   bad.vertices[7][2] = std::numeric_limits<double>::infinity();
   r = CheckMesh(bad);
   EXPECT_FALSE(r.self_intersections_checked);
   EXPECT_FALSE(r.ok());
-  bad = Merge(MakeCube(), MakeCube({1, 1, 0}));  // sharing an edge, as above
+  // Sharing an edge, as above.
+  bad = Merge(BoxMesh({0, 0, 0}, {1, 1, 1}), BoxMesh({1, 1, 0}, {2, 2, 1}));
   for (auto& f : bad.faces) {
     for (int& i : f) {
       if (i == 8) i = 3;
@@ -314,17 +317,18 @@ TEST(MeshCheckTest, SelfIntersectionTestRunsOnlyOnMeshesItCanRead) {
   EXPECT_FALSE(r.self_intersections_checked);
   EXPECT_FALSE(r.ok());
   // An open mesh is still tested (its other problem is reported apart).
-  TriangleMesh open = MakeCube();
+  TriangleMesh open = BoxMesh({0, 0, 0}, {1, 1, 1});
   open.faces.pop_back();
   r = CheckMesh(open);
   EXPECT_TRUE(r.self_intersections_checked);
   EXPECT_TRUE(r.self_intersection_free);
   EXPECT_FALSE(r.closed);
   // Two disjoint pieces are tested too; two interpenetrating ones cross.
-  r = CheckMesh(Merge(MakeCube(), MakeCube({3, 0, 0})));
+  r = CheckMesh(Merge(BoxMesh({0, 0, 0}, {1, 1, 1}), BoxMesh({3, 0, 0}, {4, 1, 1})));
   EXPECT_TRUE(r.self_intersections_checked);
   EXPECT_EQ(r.num_self_intersecting_pairs, 0);
-  const TriangleMesh overlapping = Merge(MakeCube(), MakeCube({0.75, 0.25, 0.25}, 0.5));
+  const TriangleMesh overlapping =
+      Merge(BoxMesh({0, 0, 0}, {1, 1, 1}), BoxMesh({0.75, 0.25, 0.25}, {1.25, 0.75, 0.75}));
   r = CheckMesh(overlapping);
   EXPECT_TRUE(r.self_intersections_checked);
   EXPECT_GT(r.num_self_intersecting_pairs, 0);
@@ -332,7 +336,7 @@ TEST(MeshCheckTest, SelfIntersectionTestRunsOnlyOnMeshesItCanRead) {
 }
 
 TEST(MeshCheckTest, SelfIntersectionTestCanBeTurnedOff) {
-  TriangleMesh m = MakeCube();
+  TriangleMesh m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.vertices[7] = {1, 1, -0.5};
   MeshCheckOptions options;
   options.self_intersections = false;
@@ -341,7 +345,7 @@ TEST(MeshCheckTest, SelfIntersectionTestCanBeTurnedOff) {
   EXPECT_FALSE(r.self_intersection_free);
   EXPECT_EQ(r.num_self_intersecting_pairs, 0);
   EXPECT_EQ(r.ok(), r.outward);  // only the geometric volume test is left to fail
-  EXPECT_TRUE(CheckMesh(MakeCube(), options).ok());
+  EXPECT_TRUE(CheckMesh(BoxMesh({0, 0, 0}, {1, 1, 1}), options).ok());
 }
 
 }  // namespace

@@ -18,11 +18,12 @@
 
 #include "service/mesh/fractal.h"
 #include "tests/mesh/mesh_test_util.h"
+#include "tests/support/box_mesh.h"
 
 namespace softgrasp::mesh {
 namespace {
 
-using testing::MakeCube;
+using softgrasp::testing::BoxMesh;
 
 constexpr MeshFormat kAllFormats[] = {MeshFormat::kObj, MeshFormat::kPlyAscii,
                                       MeshFormat::kPlyBinary, MeshFormat::kStlAscii,
@@ -75,7 +76,7 @@ std::string Be(const void* p, std::size_t n) {
 }
 
 TEST(MeshIoTest, CubeRoundTripsInEveryFormat) {
-  const TriangleMesh cube = MakeCube({-0.5, 0.25, 3.0}, 0.125);
+  const TriangleMesh cube = BoxMesh({-0.5, 0.25, 3.0}, {-0.375, 0.375, 3.125});
   for (const MeshFormat f : kAllFormats) {
     const std::string bytes = WriteMesh(cube, f);
     const auto sniffed = SniffMeshFormat(bytes);
@@ -131,11 +132,11 @@ TEST(MeshIoTest, StlIsFloat32AndWelds) {
 }
 
 TEST(MeshIoTest, BinaryStlWhoseHeaderSaysSolidIsBinary) {
-  std::string bytes = WriteStl(MakeCube(), Encoding::kBinary);
+  std::string bytes = WriteStl(BoxMesh({0, 0, 0}, {1, 1, 1}), Encoding::kBinary);
   bytes.replace(0, 11, "solid cube ");
   ASSERT_TRUE(SniffMeshFormat(bytes).ok());
   EXPECT_EQ(SniffMeshFormat(bytes).value(), MeshFormat::kStlBinary);
-  EXPECT_EQ(MustRead(bytes), FirstAppearanceOrder(MakeCube()));
+  EXPECT_EQ(MustRead(bytes), FirstAppearanceOrder(BoxMesh({0, 0, 0}, {1, 1, 1})));
 }
 
 TEST(MeshIoTest, ObjIndexFormsPolygonsAndExtras) {
@@ -191,7 +192,7 @@ TEST(MeshIoTest, AsciiPlyWithComments) {
 
 TEST(MeshIoTest, BrokenInputIsAnErrorNotACrash) {
   using core::ErrorCode;
-  const TriangleMesh cube = MakeCube();
+  const TriangleMesh cube = BoxMesh({0, 0, 0}, {1, 1, 1});
   const std::string stl = WriteStl(cube, Encoding::kBinary);
   EXPECT_EQ(ErrorOf(stl.substr(0, stl.size() - 10)), ErrorCode::kInvalidArgument);  // truncated
   std::string wrong_count = stl;
@@ -257,27 +258,31 @@ TEST(MeshIoTest, LimitsAreCheckedBeforeAllocating) {
   small.max_vertices = 7;
   small.max_faces = 100;
   for (const MeshFormat f : kAllFormats) {
-    EXPECT_EQ(ErrorOf(WriteMesh(MakeCube(), f), small), ErrorCode::kPayloadTooLarge)
+    EXPECT_EQ(ErrorOf(WriteMesh(BoxMesh({0, 0, 0}, {1, 1, 1}), f), small),
+              ErrorCode::kPayloadTooLarge)
         << MeshFormatName(f);
   }
   small.max_vertices = 8;
   small.max_faces = 11;
   for (const MeshFormat f : kAllFormats) {
-    EXPECT_EQ(ErrorOf(WriteMesh(MakeCube(), f), small), ErrorCode::kPayloadTooLarge)
+    EXPECT_EQ(ErrorOf(WriteMesh(BoxMesh({0, 0, 0}, {1, 1, 1}), f), small),
+              ErrorCode::kPayloadTooLarge)
         << MeshFormatName(f);
   }
   small.max_faces = 12;
-  for (const MeshFormat f : kAllFormats) MustRead(WriteMesh(MakeCube(), f), small);
+  for (const MeshFormat f : kAllFormats) {
+    MustRead(WriteMesh(BoxMesh({0, 0, 0}, {1, 1, 1}), f), small);
+  }
 }
 
 TEST(MeshIoTest, WritersRejectBrokenMeshes) {
-  TriangleMesh m = MakeCube();
+  TriangleMesh m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.faces[0][0] = 8;
   for (const MeshFormat f : kAllFormats) EXPECT_THROW(WriteMesh(m, f), std::invalid_argument);
-  m = MakeCube();
+  m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.vertices[2][1] = INFINITY;
   for (const MeshFormat f : kAllFormats) EXPECT_THROW(WriteMesh(m, f), std::invalid_argument);
-  m = MakeCube();
+  m = BoxMesh({0, 0, 0}, {1, 1, 1});
   m.vertices[2][1] = 1e300;  // finite, but not as float32
   EXPECT_THROW(WriteStl(m, Encoding::kBinary), std::invalid_argument);
   EXPECT_NO_THROW(WriteObj(m));
@@ -289,7 +294,7 @@ TEST(MeshIoTest, WritersRejectBrokenMeshes) {
 
 std::map<std::string, std::string> CorpusFiles() {
   std::map<std::string, std::string> files;
-  const TriangleMesh cube = MakeCube({0, 0, 0}, 0.5);
+  const TriangleMesh cube = BoxMesh({0, 0, 0}, {0.5, 0.5, 0.5});
   files["ok_cube.obj"] = WriteObj(cube);
   files["ok_cube_ascii.ply"] = WritePly(cube, Encoding::kAscii);
   files["ok_cube_binary.ply"] = WritePly(cube, Encoding::kBinary);

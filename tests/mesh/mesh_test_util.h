@@ -1,5 +1,5 @@
 #pragma once
-// Small closed meshes with known answers for the mesh tests.
+// Small closed meshes with known answers for the mesh tests (boxes: tests/support/box_mesh.h).
 
 #include <array>
 #include <cmath>
@@ -9,19 +9,6 @@
 #include "service/mesh/mesh.h"
 
 namespace softgrasp::mesh::testing {
-
-/// Axis-aligned cube [x0, x0 + size] x ..., vertex i at corner (i & 1, i >> 1 & 1, i >> 2 & 1),
-/// 12 triangles counter-clockwise seen from outside.
-inline TriangleMesh MakeCube(std::array<double, 3> origin = {0, 0, 0}, double size = 1.0) {
-  TriangleMesh m;
-  for (int i = 0; i < 8; ++i) {
-    m.vertices.push_back({origin[0] + size * (i & 1), origin[1] + size * ((i >> 1) & 1),
-                          origin[2] + size * ((i >> 2) & 1)});
-  }
-  m.faces = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 5}, {0, 5, 4},
-             {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
-  return m;
-}
 
 /// Regular tetrahedron-like simplex (0,0,0), (1,0,0), (0,1,0), (0,0,1), outward.
 inline TriangleMesh MakeTetrahedron() {

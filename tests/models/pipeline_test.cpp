@@ -14,6 +14,7 @@
 #include "service/models/stiffness_model.h"
 #include "service/models/trainer.h"
 #include "sim/dataset/dataset.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::models {
 namespace {
@@ -34,9 +35,7 @@ class PipelineTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     SetTorchThreads(1);
-    root_ = new fs::path(fs::temp_directory_path() /
-                         ("softgrasp_models_test_" + std::to_string(::getpid())));
-    fs::remove_all(*root_);
+    root_ = new softgrasp::testing::TempDir("models-test");
     sim::DatasetParams params;
     params.scenes = 4;
     params.seed = 5;
@@ -60,7 +59,6 @@ class PipelineTest : public ::testing::Test {
     set_ = new TrainingSet(std::move(set.value()));
   }
   static void TearDownTestSuite() {
-    fs::remove_all(*root_);
     delete root_;
     delete set_;
   }
@@ -77,11 +75,11 @@ class PipelineTest : public ::testing::Test {
     return o;
   }
 
-  static fs::path* root_;
+  static softgrasp::testing::TempDir* root_;
   static TrainingSet* set_;
 };
 
-fs::path* PipelineTest::root_ = nullptr;
+softgrasp::testing::TempDir* PipelineTest::root_ = nullptr;
 TrainingSet* PipelineTest::set_ = nullptr;
 
 std::vector<torch::Tensor> Parameters(const fs::path& model) {

@@ -19,6 +19,7 @@
 #include "service/models/segmentation_trainer.h"
 #include "service/models/stiffness_model.h"
 #include "sim/dataset/dataset.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::models {
 namespace {
@@ -83,9 +84,7 @@ class SegmentationPipelineTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     SetTorchThreads(1);
-    root_ = new fs::path(fs::temp_directory_path() /
-                         ("softgrasp_segmentation_test_" + std::to_string(::getpid())));
-    fs::remove_all(*root_);
+    root_ = new softgrasp::testing::TempDir("segmentation-test");
     sim::DatasetParams params;
     params.scenes = 3;
     params.seed = 5;
@@ -110,7 +109,6 @@ class SegmentationPipelineTest : public ::testing::Test {
     set_ = new SegmentationSet(std::move(set.value()));
   }
   static void TearDownTestSuite() {
-    fs::remove_all(*root_);
     delete root_;
     delete set_;
   }
@@ -124,10 +122,10 @@ class SegmentationPipelineTest : public ::testing::Test {
     o.network = {.width = 64, .height = 48, .base_channels = 4, .levels = 3};
     return o;
   }
-  static fs::path* root_;
+  static softgrasp::testing::TempDir* root_;
   static SegmentationSet* set_;
 };
-fs::path* SegmentationPipelineTest::root_ = nullptr;
+softgrasp::testing::TempDir* SegmentationPipelineTest::root_ = nullptr;
 SegmentationSet* SegmentationPipelineTest::set_ = nullptr;
 
 TEST_F(SegmentationPipelineTest, SetHoldsLabelsAndDeformabilityAtModelSize) {

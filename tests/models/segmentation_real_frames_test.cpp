@@ -1,4 +1,4 @@
-// The shipped segmentation model on real frames it never saw (../shared/data/gqcnn: Primesense
+// The shipped segmentation model on real frames it never saw (tests/data/gqcnn: Primesense
 // single objects on a table, a PhoXi heap in a bin with 31 % of pixels missing): the union of its
 // confident instances (score >= "confident_score" in models/segmentation.json, calibrated on
 // simulated held-out bins) against the given object masks, and how much of it lies
@@ -20,6 +20,7 @@
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 #include "tests/support/synthetic_scene.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp::models {
 namespace {
@@ -42,15 +43,13 @@ TEST_P(RealFrames, ConfidentInstancesCoverTheObjects) {
   if (!fs::exists(model_path)) GTEST_SKIP() << "no shipped model at " << model_path;
   std::ifstream card(fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "segmentation.json");
   const float kConfident = nlohmann::json::parse(card).at("confident_score").get<float>();
-  const std::string data = SOFTGRASP_SHARED_DATA_DIR;
-  if (!fs::exists(data + "/" + f.depth)) GTEST_SKIP() << "no shared data at " << data;
   SetTorchThreads(2);
   auto model = SegmentationModel::Load(model_path);
   ASSERT_TRUE(model.ok()) << model.error().message;
-  const core::DepthImage depth{testing::LoadNpyFloat32(data + "/" + f.depth)};
+  const core::DepthImage depth{testing::LoadNpyFloat32(testing::TestData(f.depth))};
   auto scene = core::Preprocess(depth, f.camera);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
-  const cv::Mat1b truth = cv::imread(data + "/" + f.mask, cv::IMREAD_GRAYSCALE) > 0;
+  const cv::Mat1b truth = cv::imread(testing::TestData(f.mask), cv::IMREAD_GRAYSCALE) > 0;
   ASSERT_EQ(truth.size(), depth.depth_m.size());
 
   model.value().SegmentScene(scene.value());  // warm-up

@@ -20,6 +20,7 @@
 #include "service/models/dataset.h"
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/scene_gen.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::models {
 namespace {
@@ -41,9 +42,7 @@ std::string Slurp(const fs::path& path) {
 class TrainCliTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    root_ = new fs::path(fs::temp_directory_path() /
-                         ("softgrasp_train_cli_" + std::to_string(::getpid())));
-    fs::remove_all(*root_);
+    root_ = new softgrasp::testing::TempDir("train-cli");
     sim::DatasetParams params;  // full-size camera, bin, noise on: what `generate` writes
     params.scenes = 3;
     params.seed = 11;
@@ -53,7 +52,6 @@ class TrainCliTest : public ::testing::Test {
     ASSERT_TRUE(index.ok()) << index.error().message;
   }
   static void TearDownTestSuite() {
-    fs::remove_all(*root_);
     delete root_;
   }
 
@@ -76,9 +74,9 @@ class TrainCliTest : public ::testing::Test {
     return (fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "segmentation.pt").string();
   }
 
-  static fs::path* root_;
+  static softgrasp::testing::TempDir* root_;
 };
-fs::path* TrainCliTest::root_ = nullptr;
+softgrasp::testing::TempDir* TrainCliTest::root_ = nullptr;
 
 // evaluate plans through the service's engine: its FGE grasp on each scene is the engine's best
 // grasp on the stored frame with the bin's workspace as the contact region, exactly (the REST

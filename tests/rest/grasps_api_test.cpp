@@ -20,7 +20,7 @@ using testing::MultipartRequest;
 using testing::RawRequest;
 using testing::ReadFileBytes;
 using testing::RunningServer;
-using testing::SharedData;
+using testing::TestData;
 
 class GraspsApiTest : public ::testing::Test {
  protected:
@@ -52,8 +52,8 @@ TEST_F(GraspsApiTest, PrimesenseFramesGiveGraspsOnTheObject) {
     SCOPED_TRACE("single_depth_" + std::to_string(i));
     const auto reply = server_->Send(MultipartRequest(
         "/v1/grasps",
-        {{"depth", ReadFileBytes(SharedData("gqcnn/primesense/single_depth_" + std::to_string(i) + ".npy")), "d.npy"},
-         {"intrinsics", ReadFileBytes(SharedData("gqcnn/primesense/primesense.intr")), "p.intr"}}));
+        {{"depth", ReadFileBytes(TestData("gqcnn/primesense/single_depth_" + std::to_string(i) + ".npy")), "d.npy"},
+         {"intrinsics", ReadFileBytes(TestData("gqcnn/primesense/primesense.intr")), "p.intr"}}));
     ASSERT_EQ(reply.status, 200) << reply.body;
     const json body = json::parse(reply.body);
     EXPECT_EQ(body["camera"]["source"], "request");
@@ -63,7 +63,7 @@ TEST_F(GraspsApiTest, PrimesenseFramesGiveGraspsOnTheObject) {
     const json& best = body["grasps"][0];
     EXPECT_EQ(best["rank"], 1);
     const cv::Mat mask = cv::imread(
-        SharedData("gqcnn/primesense/single_segmask_" + std::to_string(i) + ".png"),
+        TestData("gqcnn/primesense/single_segmask_" + std::to_string(i) + ".png"),
         cv::IMREAD_GRAYSCALE);
     ASSERT_FALSE(mask.empty());
     const int u = static_cast<int>(std::lround(best["center_px"]["u"].get<double>()));
@@ -89,8 +89,8 @@ TEST_F(GraspsApiTest, PrimesenseFramesGiveGraspsOnTheObject) {
 TEST_F(GraspsApiTest, PhoxiFrameWithMissingPixelsGivesGrasps) {
   const auto reply = server_->Send(MultipartRequest(
       "/v1/grasps",
-      {{"depth", ReadFileBytes(SharedData("gqcnn/phoxi/clutter_depth_0.npy")), "d.npy"},
-       {"intrinsics", ReadFileBytes(SharedData("gqcnn/phoxi/phoxi.intr")), "p.intr"}}));
+      {{"depth", ReadFileBytes(TestData("gqcnn/phoxi/clutter_depth_0.npy")), "d.npy"},
+       {"intrinsics", ReadFileBytes(TestData("gqcnn/phoxi/phoxi.intr")), "p.intr"}}));
   ASSERT_EQ(reply.status, 200) << reply.body;
   const json body = json::parse(reply.body);
   EXPECT_NEAR(body["image"]["missing_fraction"].get<double>(), 0.31, 0.02);
@@ -100,7 +100,7 @@ TEST_F(GraspsApiTest, PhoxiFrameWithMissingPixelsGivesGrasps) {
 TEST_F(GraspsApiTest, RawBodyWithQueryIntrinsicsAndTopK) {
   const auto reply = server_->Send(RawRequest(
       "POST", "/v1/grasps?fx=525&fy=525&cx=319.5&cy=239.5&top_k=2", "application/x-npy",
-      ReadFileBytes(SharedData("gqcnn/primesense/single_depth_1.npy"))));
+      ReadFileBytes(TestData("gqcnn/primesense/single_depth_1.npy"))));
   ASSERT_EQ(reply.status, 200) << reply.body;
   const json body = json::parse(reply.body);
   EXPECT_EQ(body["camera"]["source"], "request");
@@ -109,7 +109,7 @@ TEST_F(GraspsApiTest, RawBodyWithQueryIntrinsicsAndTopK) {
 }
 
 TEST_F(GraspsApiTest, Png16InMillimetresGivesTheSameGraspsAsNpy) {
-  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
   auto depth = io::DecodeDepth(npy);
   ASSERT_TRUE(depth.ok());
   cv::Mat1w mm;
@@ -151,7 +151,7 @@ TEST_F(GraspsApiTest, OverlayPngHasTheImageSize) {
     const std::string target = how == "query" ? "/v1/grasps?format=png" : "/v1/grasps";
     const std::string headers = how == "accept" ? "Accept: image/png\r\n" : "";
     const auto reply = server_->Send(MultipartRequest(
-        target, {{"depth", ReadFileBytes(SharedData("gqcnn/primesense/single_depth_2.npy")), "d.npy"}},
+        target, {{"depth", ReadFileBytes(TestData("gqcnn/primesense/single_depth_2.npy")), "d.npy"}},
         headers));
     ASSERT_EQ(reply.status, 200) << reply.body;
     EXPECT_EQ(reply.header("Content-Type").value_or(""), "image/png");
@@ -167,7 +167,7 @@ TEST_F(GraspsApiTest, OverlayPngHasTheImageSize) {
 }
 
 TEST_F(GraspsApiTest, TruncatedNpyIsA4xxWithAClearMessage) {
-  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
   const auto header_cut = server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy.substr(0, 40), "d.npy"}}));
   ExpectError(header_cut, 400, "depth");
   const auto data_cut = server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy.substr(0, 5000), "d.npy"}}));
@@ -192,7 +192,7 @@ TEST_F(GraspsApiTest, MissingDepthPartNamesTheField) {
 }
 
 TEST_F(GraspsApiTest, BadParametersNameTheirField) {
-  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
   ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"top_k", "0", ""}})), 400, "top_k");
   ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"fx", "abc", ""}, {"fy", "1", ""}, {"cx", "1", ""}, {"cy", "1", ""}})), 400, "fx");
   ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"fx", "500", ""}})), 400, "fx");
@@ -206,15 +206,15 @@ TEST_F(GraspsApiTest, BadParametersNameTheirField) {
 // unmasked grasp. No grasp may close there any more, and every grasp closes on the mask: its
 // centre lies within half an opening of a mask pixel (a grasp around a ring may centre in its hole).
 TEST_F(GraspsApiTest, SegmaskRestrictsGraspsToTheMaskedRegion) {
-  const std::string npy = ReadFileBytes(SharedData("gqcnn/phoxi/clutter_depth_0.npy"));
-  const std::string intr = ReadFileBytes(SharedData("gqcnn/phoxi/phoxi.intr"));
+  const std::string npy = ReadFileBytes(TestData("gqcnn/phoxi/clutter_depth_0.npy"));
+  const std::string intr = ReadFileBytes(TestData("gqcnn/phoxi/phoxi.intr"));
   const auto unmasked = server_->Send(MultipartRequest(
       "/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", intr, "p.intr"}}));
   ASSERT_EQ(unmasked.status, 200) << unmasked.body;
   const json best = json::parse(unmasked.body)["grasps"].at(0);
   const cv::Point2d taken(best["center_px"]["u"].get<double>(), best["center_px"]["v"].get<double>());
 
-  cv::Mat1b mask = cv::imread(SharedData("gqcnn/phoxi/clutter_segmask_0.png"), cv::IMREAD_GRAYSCALE);
+  cv::Mat1b mask = cv::imread(TestData("gqcnn/phoxi/clutter_segmask_0.png"), cv::IMREAD_GRAYSCALE);
   ASSERT_FALSE(mask.empty());
   constexpr int kHoleRadiusPx = 60;
   cv::circle(mask, cv::Point(static_cast<int>(taken.x), static_cast<int>(taken.y)), kHoleRadiusPx,
@@ -241,7 +241,7 @@ TEST_F(GraspsApiTest, SegmaskRestrictsGraspsToTheMaskedRegion) {
 }
 
 TEST_F(GraspsApiTest, MinDepthKeepsGraspsOffNearSurfaces) {
-  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
   const auto all = server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}}));
   ASSERT_EQ(all.status, 200);
   const json best = json::parse(all.body)["grasps"][0];
@@ -264,7 +264,7 @@ TEST_F(GraspsApiTest, MinDepthKeepsGraspsOffNearSurfaces) {
 }
 
 TEST_F(GraspsApiTest, BadSegmasksAndMinDepthsNameTheirField) {
-  const std::string npy = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
   const cv::Mat1b small(48, 64, uint8_t{255});
   ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", io::EncodePng(small), "m.png"}})), 422, "segmask");
   ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", "GIF89a", "m.gif"}})), 415, "segmask");
@@ -277,8 +277,8 @@ TEST_F(GraspsApiTest, BadSegmasksAndMinDepthsNameTheirField) {
 TEST_F(GraspsApiTest, IntrinsicsOfAnotherImageSizeAreRefused) {
   const auto reply = server_->Send(MultipartRequest(
       "/v1/grasps",
-      {{"depth", ReadFileBytes(SharedData("gqcnn/phoxi/clutter_depth_0.npy")), "d.npy"},
-       {"intrinsics", ReadFileBytes(SharedData("gqcnn/primesense/primesense.intr")), "p.intr"}}));
+      {{"depth", ReadFileBytes(TestData("gqcnn/phoxi/clutter_depth_0.npy")), "d.npy"},
+       {"intrinsics", ReadFileBytes(TestData("gqcnn/primesense/primesense.intr")), "p.intr"}}));
   ExpectError(reply, 422, "intrinsics");
 }
 
@@ -287,7 +287,7 @@ TEST(GraspsApiLimitsTest, ImagesOverThePixelLimitAreRefusedBeforeDecoding) {
   config.max_image_pixels = 640 * 480 - 1;
   RunningServer server(config);
   const auto reply = server.Send(MultipartRequest(
-      "/v1/grasps", {{"depth", ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy")), "d.npy"}}));
+      "/v1/grasps", {{"depth", ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy")), "d.npy"}}));
   ExpectError(reply, 413, "depth");
 }
 

@@ -60,10 +60,10 @@ TEST(OpenApiContractTest, ResponsesMatchTheirSchemas) {
 
   const auto grasps = server.Send(testing::MultipartRequest(
       "/v1/grasps",
-      {{"depth", testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")),
+      {{"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
         "d.npy"},
        {"intrinsics",
-        testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")),
+        testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
         "p.intr"}}));
   ASSERT_EQ(grasps.status, 200) << grasps.body;
   const json grasps_body = json::parse(grasps.body);
@@ -97,10 +97,10 @@ TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
   const auto upload = [] {
     return std::vector<testing::FormPart>{
         {"depth",
-         testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")),
+         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
          "d.npy"},
         {"intrinsics",
-         testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")),
+         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
          "p.intr"}};
   };
   const json& error_schema = spec["components"]["schemas"]["Error"];
@@ -148,10 +148,10 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
   const auto upload = [](std::vector<testing::FormPart> extra = {}) {
     std::vector<testing::FormPart> parts{
         {"depth",
-         testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")),
+         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
          "d.npy"},
         {"intrinsics",
-         testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")),
+         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
          "p.intr"}};
     parts.insert(parts.end(), extra.begin(), extra.end());
     return parts;
@@ -227,10 +227,10 @@ TEST(OpenApiContractTest, DeformabilityAnswersMatchTheirSchemas) {
     const auto grasps = server.Send(testing::MultipartRequest(
         "/v1/grasps",
         {{"depth",
-          testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy")),
+          testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
           "d.npy"},
          {"intrinsics",
-          testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/primesense.intr")),
+          testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
           "p.intr"},
          {"target_policy", policy, ""}}));
     ASSERT_EQ(grasps.status, 200) << grasps.body;

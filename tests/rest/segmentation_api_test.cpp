@@ -24,6 +24,7 @@
 #include "service/models/segmentation_model.h"
 #include "tests/rest/server_fixture.h"
 #include "tests/support/synthetic_scene.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::rest {
 namespace {
@@ -447,9 +448,8 @@ TEST(SegmentationModelConfigTest, FileEnvironmentAndFlagSetTheModel) {
 
 TEST(SegmentationModelConfigTest, DefaultIsTheShippedModelNextToTheExecutableElseNone) {
   namespace fs = std::filesystem;
-  char pattern[] = "/tmp/softgrasp-segmentation-models-XXXXXX";
-  ASSERT_NE(::mkdtemp(pattern), nullptr);
-  const fs::path prefix = pattern;
+  const softgrasp::testing::TempDir temp("segmentation-models");
+  const fs::path& prefix = temp.path();
   const auto touch = [](const fs::path& file) {
     fs::create_directories(file.parent_path());
     std::ofstream(file) << "x";
@@ -463,7 +463,6 @@ TEST(SegmentationModelConfigTest, DefaultIsTheShippedModelNextToTheExecutableEls
   touch(prefix / "models" / "segmentation.pt");
   EXPECT_EQ(config::DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()),
             (prefix / "models" / "segmentation.pt").string());
-  fs::remove_all(prefix);
 }
 
 // ---- with a segmentation model, when one exists (never a made-up one) ----
@@ -607,7 +606,7 @@ TEST(SegmentationApiModelTest, DeformabilityStrategyGraspsOneTarget) {
   }
 }
 
-// The default strategy with the shipped models on every real frame in ../shared/data: always
+// The default strategy with the shipped models on every real frame in tests/data: always
 // grasps (on one target, or from the whole-scene fallback when no confident object gives one),
 // each with its deformability record; the whole request within the 250 ms budget is a benchmark
 // (grasps_api_bench), not asserted here.
@@ -621,8 +620,8 @@ TEST(SegmentationApiModelTest, DeformabilityAnswersGraspsOnEveryRealFrame) {
            {"gqcnn/phoxi/clutter_depth_0.npy", "gqcnn/phoxi/phoxi.intr"}}) {
     SCOPED_TRACE(frame);
     const json body = ParseOk(server.Send(MultipartRequest(
-        "/v1/grasps", {{"depth", testing::ReadFileBytes(testing::SharedData(frame)), "d.npy"},
-                       {"intrinsics", testing::ReadFileBytes(testing::SharedData(intr)), "c.intr"}})));
+        "/v1/grasps", {{"depth", testing::ReadFileBytes(testing::TestData(frame)), "d.npy"},
+                       {"intrinsics", testing::ReadFileBytes(testing::TestData(intr)), "c.intr"}})));
     EXPECT_EQ(body["strategy"], "deformability");
     ASSERT_FALSE(body["grasps"].empty()) << body.dump();
     const bool fallback = body["target"]["fallback"];

@@ -1,13 +1,8 @@
 #pragma once
 // Starts the real softgrasp server (router + http::Server) on 127.0.0.1:0 and talks HTTP to it
-// over a real socket. One request per connection.
+// over a real socket (tests/support/http_client.h). One request per connection.
 
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/time.h>
-#include <unistd.h>
 
 #include <fstream>
 #include <functional>
@@ -22,82 +17,18 @@
 #include "service/http/server.h"
 #include "service/rest/api.h"
 #include "service/config/config.h"
+#include "tests/support/http_client.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp::rest::testing {
 
-struct HttpReply {
-  int status = 0;
-  http::Headers headers;
-  std::string body;
-  std::optional<std::string_view> header(std::string_view name) const {
-    return http::FindHeader(headers, name);
-  }
-};
+using softgrasp::testing::HttpReply;
+using softgrasp::testing::TestData;  // tests/data, the real frames kept with the tests
 
 inline std::string ReadFileBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("cannot read " + path);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-inline std::string SharedData(const std::string& relative) {
-  return std::string(SOFTGRASP_SHARED_DATA_DIR) + "/" + relative;
-}
-
-/// Sends raw bytes, reads one response (Content-Length framed) and closes.
-inline HttpReply Exchange(uint16_t port, const std::string& raw) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) throw std::runtime_error("socket");
-  timeval timeout{20, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(port);
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(fd);
-    throw std::runtime_error("connect");
-  }
-  std::size_t sent = 0;
-  while (sent < raw.size()) {
-    const ssize_t n = ::send(fd, raw.data() + sent, raw.size() - sent, MSG_NOSIGNAL);
-    if (n <= 0) break;  // the server may answer early (413) and close
-    sent += static_cast<std::size_t>(n);
-  }
-  std::string in;
-  char buffer[65536];
-  HttpReply reply;
-  std::size_t header_end = std::string::npos;
-  std::size_t content_length = 0;
-  for (;;) {
-    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
-    if (n <= 0) break;
-    in.append(buffer, static_cast<std::size_t>(n));
-    if (header_end == std::string::npos) {
-      header_end = in.find("\r\n\r\n");
-      if (header_end == std::string::npos) continue;
-      const std::string head = in.substr(0, header_end);
-      reply.status = std::stoi(head.substr(9, 3));
-      std::size_t line = head.find("\r\n");
-      while (line != std::string::npos) {
-        const std::size_t next = head.find("\r\n", line + 2);
-        const std::string field =
-            head.substr(line + 2, next == std::string::npos ? std::string::npos : next - line - 2);
-        const std::size_t colon = field.find(':');
-        if (colon != std::string::npos) {
-          std::string value = field.substr(colon + 1);
-          while (!value.empty() && value.front() == ' ') value.erase(0, 1);
-          reply.headers.emplace_back(field.substr(0, colon), value);
-        }
-        line = next;
-      }
-      content_length = std::stoul(std::string(reply.header("Content-Length").value_or("0")));
-    }
-    if (in.size() >= header_end + 4 + content_length) break;
-  }
-  ::close(fd);
-  if (header_end != std::string::npos) reply.body = in.substr(header_end + 4, content_length);
-  return reply;
 }
 
 struct FormPart {
@@ -177,7 +108,9 @@ class RunningServer {
   }
   ~RunningServer() { server_->Stop(); }
   uint16_t port() const { return server_->port(); }
-  HttpReply Send(const std::string& raw) const { return Exchange(port(), raw); }
+  HttpReply Send(const std::string& raw) const {
+    return softgrasp::testing::HttpExchange(port(), raw);
+  }
 
  private:
   config::ServiceConfig config_;

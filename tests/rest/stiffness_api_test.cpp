@@ -30,14 +30,14 @@ using testing::MultipartRequest;
 using testing::RawRequest;
 using testing::ReadFileBytes;
 using testing::RunningServer;
-using testing::SharedData;
+using testing::TestData;
 
 const std::string& DepthNpy() {
-  static const std::string bytes = ReadFileBytes(SharedData("gqcnn/primesense/single_depth_0.npy"));
+  static const std::string bytes = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
   return bytes;
 }
 const std::string& Intrinsics() {
-  static const std::string bytes = ReadFileBytes(SharedData("gqcnn/primesense/primesense.intr"));
+  static const std::string bytes = ReadFileBytes(TestData("gqcnn/primesense/primesense.intr"));
   return bytes;
 }
 

@@ -16,6 +16,7 @@
 #include "service/io/overlay.h"
 #include "service/config/config.h"
 #include "tests/rest/server_fixture.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::rest {
 namespace {
@@ -37,9 +38,7 @@ void WriteFile(const fs::path& path, const std::string& bytes) {
 class WebRoutesTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    char pattern[] = "/tmp/softgrasp-web-XXXXXX";
-    ASSERT_NE(::mkdtemp(pattern), nullptr);
-    sandbox_ = pattern;
+    sandbox_ = temp_.path();
     WriteFile(sandbox_ / "web" / "index.html", kIndex);
     WriteFile(sandbox_ / "web" / "assets" / "app-ABCD1234.js", kScript);
     WriteFile(sandbox_ / "secret.txt", kSecret);
@@ -47,14 +46,12 @@ class WebRoutesTest : public ::testing::Test {
     config.web_root = (sandbox_ / "web").string();
     server_ = std::make_unique<testing::RunningServer>(config);
   }
-  void TearDown() override {
-    server_.reset();
-    fs::remove_all(sandbox_);
-  }
+  void TearDown() override { server_.reset(); }
   testing::HttpReply Get(const std::string& target, const std::string& headers = "") {
     return server_->Send(RawRequest("GET", target, "", "", headers));
   }
 
+  softgrasp::testing::TempDir temp_{"web"};
   fs::path sandbox_;
   std::unique_ptr<testing::RunningServer> server_;
 };
@@ -142,9 +139,8 @@ TEST(WebRootTest, ConfigFileEnvironmentAndFlag) {
 }
 
 TEST(WebRootTest, DefaultIsNextToTheExecutable) {
-  char pattern[] = "/tmp/softgrasp-layout-XXXXXX";
-  ASSERT_NE(::mkdtemp(pattern), nullptr);
-  const fs::path prefix = pattern;
+  const softgrasp::testing::TempDir temp("layout");
+  const fs::path& prefix = temp.path();
   // Nothing built: the build-tree folder, so the start-up warning names where it should be.
   EXPECT_EQ(config::DefaultWebRoot((prefix / "service" / "softgrasp-server").string()),
             (prefix / "web").string());
@@ -154,7 +150,6 @@ TEST(WebRootTest, DefaultIsNextToTheExecutable) {
   WriteFile(prefix / "web" / "index.html", "x");
   EXPECT_EQ(config::DefaultWebRoot((prefix / "service" / "softgrasp-server").string()),
             (prefix / "web").string());
-  fs::remove_all(prefix);
 }
 
 // The page draws grasps itself over the plain depth picture (draw=none); the overlay with
@@ -162,7 +157,7 @@ TEST(WebRootTest, DefaultIsNextToTheExecutable) {
 TEST(GraspPictureTest, DrawNoneIsTheColourMappedDepthAlone) {
   testing::RunningServer server;
   const std::string npy =
-      testing::ReadFileBytes(testing::SharedData("gqcnn/primesense/single_depth_0.npy"));
+      testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy"));
   const auto plain = server.Send(testing::MultipartRequest(
       "/v1/grasps?format=png", {{"depth", npy, "d.npy"}, {"draw", "none", ""}}));
   const auto drawn = server.Send(testing::MultipartRequest(

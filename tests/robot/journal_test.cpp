@@ -32,6 +32,8 @@
 #include <thread>
 #include <vector>
 
+#include "tests/support/temp_dir.h"
+
 namespace softgrasp::robot {
 namespace {
 
@@ -40,12 +42,11 @@ namespace fs = std::filesystem;
 class JournalTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("softgrasp-journal-test-" + std::to_string(::getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
+    temp_.emplace(std::string("journal-test-") +
+                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = temp_->path();
   }
-  void TearDown() override { fs::remove_all(dir_); }
+  void TearDown() override { temp_.reset(); }
 
   fs::path file() const { return dir_ / kJournalFileName; }
   std::string ReadFile() const {
@@ -62,6 +63,7 @@ class JournalTest : public ::testing::Test {
     return opened ? std::move(opened).value() : Journal::Opened{};
   }
 
+  std::optional<softgrasp::testing::TempDir> temp_;
   fs::path dir_;
 };
 

@@ -6,35 +6,21 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <atomic>
-#include <filesystem>
+#include <algorithm>
+#include <array>
 #include <memory>
 #include <string>
-#include <thread>
+#include <vector>
 
 #include "service/bridge/bridge.h"
 #include "tests/bridge/bridge_test_util.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::robot::testing {
 
 using bridge::testing::TestOptions;
 using bridge::testing::WaitUntil;
-
-/// A fresh folder under /tmp, removed at the end.
-class TempDir {
- public:
-  explicit TempDir(const std::string& name)
-      : path_(std::filesystem::temp_directory_path() /
-              ("softgrasp-" + name + "-" + std::to_string(::getpid()))) {
-    std::filesystem::remove_all(path_);
-  }
-  ~TempDir() { std::filesystem::remove_all(path_); }
-  std::string str() const { return path_.string(); }
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
+using softgrasp::testing::TempDir;  // a fresh journal folder per test
 
 inline std::unique_ptr<bridge::ServiceBridge> MakeServiceBridge() {
   auto service = bridge::ServiceBridge::Create(TestOptions());
@@ -92,21 +78,34 @@ class PoseCounter {
   }
   /// Takes what arrived and adds it to the running count.
   int count() {
+    Take();
+    return static_cast<int>(positions_.size());
+  }
+  /// Whether a pose at exactly `position_m` arrived. Poses come from one writer, in order: once a
+  /// command's pose is here, so is every pose written before it.
+  bool Seen(const std::array<double, 3>& position_m) {
+    Take();
+    return std::find(positions_.begin(), positions_.end(), position_m) != positions_.end();
+  }
+
+ private:
+  void Take() {
     for (;;) {
       geometry_msgs_msg_dds__PoseStamped_ pose{};
       void* samples[1] = {&pose};
       dds_sample_info_t info;
       const dds_return_t n = dds_take(reader_.get(), samples, &info, 1, 1);
-      if (n == 1 && info.valid_data) ++count_;
+      if (n == 1 && info.valid_data) {
+        positions_.push_back({pose.pose.position.x, pose.pose.position.y, pose.pose.position.z});
+      }
       dds_sample_free(&pose, &geometry_msgs_msg_dds__PoseStamped__desc, DDS_FREE_CONTENTS);
-      if (n <= 0) return count_;
+      if (n <= 0) return;
     }
   }
 
- private:
   bridge::Entity participant_;
   bridge::Entity reader_;
-  int count_ = 0;
+  std::vector<std::array<double, 3>> positions_;  // in arrival order
 };
 
 }  // namespace softgrasp::robot::testing

@@ -15,11 +15,12 @@
 #include "service/core/preprocess.h"
 #include "sim/dataset/scene_gen.h"
 #include "tests/support/synthetic_scene.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp::segmentation {
 namespace {
 
-const std::string kData = SOFTGRASP_SHARED_DATA_DIR "/gqcnn";
+const std::string kData = testing::TestData("gqcnn");
 
 core::Scene Prepare(const core::DepthImage& depth, const core::Camera& camera) {
   auto scene = core::Preprocess(depth, camera);

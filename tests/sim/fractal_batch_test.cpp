@@ -10,6 +10,7 @@
 #include "service/mesh/mesh_check.h"
 #include "service/mesh/mesh_io.h"
 #include "sim/fractal_batch.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -21,10 +22,10 @@ std::string Slurp(const fs::path& p) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+// A folder that does not exist yet, under one scratch folder of this process removed at exit.
 fs::path FreshDir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("softgrasp_" + name);
-  fs::remove_all(dir);
-  return dir;
+  static const softgrasp::testing::TempDir scratch("fractal-batch-test");
+  return scratch / name;
 }
 
 TEST(FractalBatchTest, WritesClosedMeshesAndAnIndex) {

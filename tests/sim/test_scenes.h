@@ -1,5 +1,6 @@
 #pragma once
-/// Analytic test geometry for the simulator tests: boxes and icospheres as SimObjects.
+/// Analytic test geometry for the simulator tests: icospheres, SimObjects, poses and a table
+/// (boxes: tests/support/box_mesh.h).
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -9,24 +10,9 @@
 #include <vector>
 
 #include "sim/scene/scene.h"
+#include "tests/support/box_mesh.h"
 
 namespace softgrasp::sim::test_scenes {
-
-/// An axis-aligned box [-half, half] in O, 12 outward triangles (corner index = x + 2y + 4z).
-inline mesh::TriangleMesh BoxMesh(const Eigen::Vector3d& half_m) {
-  mesh::TriangleMesh out;
-  for (int i = 0; i < 8; ++i) {
-    out.vertices.push_back({(i & 1) ? half_m.x() : -half_m.x(), (i & 2) ? half_m.y() : -half_m.y(),
-                            (i & 4) ? half_m.z() : -half_m.z()});
-  }
-  constexpr int kQuads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                                {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : kQuads) {
-    out.faces.push_back({q[0], q[1], q[2]});
-    out.faces.push_back({q[0], q[2], q[3]});
-  }
-  return out;
-}
 
 /// An icosphere of radius r: the icosahedron, each face split in four `subdivisions` times, every
 /// vertex pushed onto the sphere. Counter-clockwise seen from outside.

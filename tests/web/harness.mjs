@@ -18,8 +18,8 @@ export const paths = (() => {
     sim: process.env.SOFTGRASP_SIM || path.join(build, 'sim', 'softgrasp-sim'),
     webRoot: process.env.SOFTGRASP_WEB_ROOT || path.join(build, 'web'),
     artifacts: process.env.SOFTGRASP_ARTIFACT_DIR || path.join(build, 'tests', 'web', 'artifacts'),
-    // CI clones the project next to shared/.
-    data: path.resolve(source, '..', 'shared', 'data'),
+    // Real camera frames kept with the tests (tests/data/README.md).
+    data: path.join(source, 'tests', 'data'),
     chromium: process.env.SOFTGRASP_CHROMIUM || '/usr/bin/chromium',
   };
 })();
@@ -38,7 +38,7 @@ export function checkPrerequisites({ sim = false, data = true } = {}) {
     missing.push(`built page ${paths.webRoot}/index.html (run scripts/build.sh)`);
   }
   if (!existsSync(paths.chromium)) missing.push(`${paths.chromium} (run scripts/setup.sh)`);
-  if (data && !existsSync(paths.data)) missing.push(`data folder ${paths.data} (shared/ beside the project)`);
+  if (data && !existsSync(paths.data)) missing.push(`data folder ${paths.data} (part of the repository)`);
   if (missing.length) throw new Error(`browser tests need: ${missing.join('; ')}`);
 }
 

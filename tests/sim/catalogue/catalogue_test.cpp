@@ -12,6 +12,7 @@
 
 #include "service/mesh/mesh_check.h"
 #include "tests/sim/test_scenes.h"
+#include "tests/support/box_mesh.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -347,7 +348,7 @@ TEST(CatalogueSplit, ValidationShapesComeFromHeldOutBands) {
 /// A cube of side_m with its lowest corner at lo.
 mesh::TriangleMesh Cube(double side_m, const Eigen::Vector3d& lo) {
   const Eigen::Vector3d half = Eigen::Vector3d::Constant(side_m / 2);
-  mesh::TriangleMesh m = test_scenes::BoxMesh(half);
+  mesh::TriangleMesh m = testing::CentredBoxMesh(half);
   for (auto& v : m.vertices) {
     for (int k = 0; k < 3; ++k) v[k] += lo[k] + half[k];
   }

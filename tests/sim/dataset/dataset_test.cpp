@@ -11,6 +11,8 @@
 
 #include "sim/dataset/user_objects.h"
 #include "sim/render/render.h"
+#include "tests/support/temp_dir.h"
+#include "tests/support/test_data.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -33,11 +35,14 @@ std::map<std::string, std::string> Snapshot(const fs::path& dir) {
   return files;
 }
 
-fs::path FreshDir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("softgrasp_dataset_" + name);
-  fs::remove_all(dir);
+// What a test writes goes under one scratch folder of this process, removed at exit.
+const softgrasp::testing::TempDir& Scratch() {
+  static const softgrasp::testing::TempDir dir("dataset-test");
   return dir;
 }
+
+// A folder that does not exist yet.
+fs::path FreshDir(const std::string& name) { return Scratch() / ("dataset_" + name); }
 
 SceneSpec SmallSpec() {
   SceneSpec spec;
@@ -334,7 +339,7 @@ constexpr const char* kCubeObj =
     "f 2 4 8\nf 2 8 6\n";
 
 fs::path WriteText(const std::string& name, const std::string& text) {
-  const fs::path path = fs::path(::testing::TempDir()) / name;
+  const fs::path path = Scratch() / name;
   std::ofstream(path) << text;
   return path;
 }
@@ -417,11 +422,11 @@ TEST(UserObjects, JoinTheSceneDraw) {
 namespace softgrasp::sim {
 namespace {
 
-// A real mesh exported as a triangle soup (Dex-Net bar clamp, ../shared/data): welded, it is a
+// A real mesh exported as a triangle soup (Dex-Net bar clamp, tests/data): welded, it is a
 // closed solid and joins the catalogue as a user object.
 TEST(UserObjects, WeldsARealTriangleSoupIntoAClosedSolid) {
   UserObjectSpec spec;
-  spec.mesh_path = std::string(SOFTGRASP_SHARED_DATA_DIR) + "/meshes/dexnet_bar_clamp.obj";
+  spec.mesh_path = testing::TestData("meshes/dexnet_bar_clamp.obj");
   spec.stiffness = 0.8f;
   auto object = LoadUserObject(spec);
   ASSERT_TRUE(object.ok()) << object.error().message;
@@ -500,12 +505,10 @@ namespace softgrasp::sim {
 namespace {
 
 TEST(SimCli, CameraHeightAndIntrinsicsAreConfigurable) {
-  const std::filesystem::path out =
-      std::filesystem::path(::testing::TempDir()) / "softgrasp_cli_camera";
-  std::filesystem::remove_all(out);
+  const softgrasp::testing::TempDir temp("cli-camera");
+  const std::filesystem::path out = temp / "out";
   const std::string exe = SOFTGRASP_SIM_EXE;
-  const std::string intr =
-      std::string(SOFTGRASP_SHARED_DATA_DIR) + "/gqcnn/primesense/primesense.intr";
+  const std::string intr = testing::TestData("gqcnn/primesense/primesense.intr");
   const std::string args =
       " generate --scenes 1 --seed 3 --objects 1 --noise off --camera-height 0.7"
       " --intrinsics " +

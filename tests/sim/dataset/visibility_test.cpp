@@ -11,27 +11,17 @@
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/scene_gen.h"
 #include "sim/render/render.h"
+#include "tests/support/box_mesh.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::sim {
 namespace {
 
 namespace fs = std::filesystem;
 
-// A closed, outward-oriented box centred on the origin (metres).
-mesh::TriangleMesh BoxMesh(double x_m, double y_m, double z_m) {
-  mesh::TriangleMesh m;
-  for (int i = 0; i < 8; ++i) {
-    m.vertices.push_back(
-        {(i & 1 ? 0.5 : -0.5) * x_m, (i & 2 ? 0.5 : -0.5) * y_m, (i & 4 ? 0.5 : -0.5) * z_m});
-  }
-  // Counter-clockwise seen from outside.
-  m.faces = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
-             {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
-  return m;
-}
-
 PlacedObject PlaceBox(int id, double x_m, double y_m, double z_m, const Eigen::Vector3d& at_w) {
-  auto object = MakeMeshObject(BoxMesh(x_m, y_m, z_m), {}, 0.5f, 500.0, "box");
+  const Eigen::Vector3d half_m = Eigen::Vector3d(x_m, y_m, z_m) / 2.0;
+  auto object = MakeMeshObject(testing::CentredBoxMesh(half_m), {}, 0.5f, 500.0, "box");
   EXPECT_TRUE(object.ok()) << object.error().message;
   PlacedObject placed;
   placed.instance_id = id;
@@ -167,9 +157,8 @@ TEST(WriteSceneFiles, ManifestListsVisibilityPerObject) {
                    PlaceBox(3, 0.02, 0.02, 0.02, {0, 0, 0.02})};
   SceneSpec spec;
   const GeneratedScene g = RenderScene(scene, spec.render);
-  const fs::path dir = fs::path(::testing::TempDir()) / "softgrasp_visibility_manifest";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const softgrasp::testing::TempDir temp("visibility-manifest");
+  const fs::path& dir = temp.path();
   ASSERT_FALSE(WriteSceneFiles(spec, g, dir, "scene").has_value());
   std::ifstream in(dir / "scene.json");
   const nlohmann::json manifest = nlohmann::json::parse(in);

@@ -9,6 +9,7 @@
 
 #include "service/mesh/mesh_check.h"
 #include "tests/sim/test_scenes.h"
+#include "tests/support/box_mesh.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -22,7 +23,7 @@ constexpr double kGravity = 9.81;
 std::shared_ptr<SimObject> Box(const Eigen::Vector3d& size_m, float stiffness, double mass_kg) {
   auto object = std::make_shared<SimObject>();
   object->category = "block";
-  object->mesh_o = test_scenes::BoxMesh(size_m / 2.0);
+  object->mesh_o = testing::CentredBoxMesh(size_m / 2.0);
   object->vertex_stiffness.assign(object->mesh_o.vertices.size(), stiffness);
   object->mass_kg = mass_kg;
   return object;

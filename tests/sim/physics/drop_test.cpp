@@ -10,6 +10,7 @@
 
 #include "service/mesh/mesh_check.h"
 #include "tests/sim/test_scenes.h"
+#include "tests/support/box_mesh.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -38,7 +39,7 @@ std::shared_ptr<SimObject> WithMass(mesh::TriangleMesh mesh, double volume_m3,
 TestShape Box(double sx_m, double sy_m, double sz_m) {
   const Eigen::Vector3d h(sx_m / 2, sy_m / 2, sz_m / 2);
   return {TestShape::Kind::kBox, h, 0,
-          WithMass(test_scenes::BoxMesh(h), sx_m * sy_m * sz_m, "box")};
+          WithMass(testing::CentredBoxMesh(h), sx_m * sy_m * sz_m, "box")};
 }
 
 // A closed cylinder along z, `n` segments, with a centre vertex on each cap.

@@ -11,12 +11,13 @@
 
 #include "service/mesh/mesh_check.h"
 #include "tests/sim/test_scenes.h"
+#include "tests/support/box_mesh.h"
 
 namespace softgrasp::sim {
 namespace {
 
 using test_scenes::BigTable;
-using test_scenes::BoxMesh;
+using softgrasp::testing::CentredBoxMesh;
 using test_scenes::IcosphereMesh;
 using test_scenes::MakeObject;
 using test_scenes::Translation;
@@ -33,13 +34,13 @@ struct FloatingBox {
     world_from_box = Translation(0.02, -0.03, 0.30) *
                      Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 2, 3).normalized());
     scene.support = BigTable();
-    scene.objects.push_back({7, MakeObject(BoxMesh(half_m), 0.7f), world_from_box});
+    scene.objects.push_back({7, MakeObject(CentredBoxMesh(half_m), 0.7f), world_from_box});
   }
 };
 
 TEST(SceneRaycaster, BoxFromSixDirectionsGivesDistanceNormalInstanceAndStiffness) {
   const FloatingBox box;
-  ASSERT_TRUE(mesh::CheckMesh(BoxMesh(box.half_m)).ok());
+  ASSERT_TRUE(mesh::CheckMesh(CentredBoxMesh(box.half_m)).ok());
   auto raycaster = SceneRaycaster::Build(box.scene);
   ASSERT_TRUE(raycaster.ok()) << raycaster.error().message;
   const Eigen::Vector3d centre_w = box.world_from_box.translation();
@@ -83,7 +84,7 @@ TEST(SceneRaycaster, MinAndMaxDistanceSelectWhichSurfaceIsHit) {
   SimScene scene;
   scene.support = BigTable();
   scene.objects.push_back(
-      {3, MakeObject(BoxMesh({0.05, 0.04, 0.03}), 0.5f), Translation(0, 0, 0.3)});
+      {3, MakeObject(CentredBoxMesh({0.05, 0.04, 0.03}), 0.5f), Translation(0, 0, 0.3)});
   auto built = SceneRaycaster::Build(scene);
   ASSERT_TRUE(built.ok()) << built.error().message;
   const SceneRaycaster& raycaster = built.value();
@@ -118,7 +119,7 @@ TEST(SceneRaycaster, MinAndMaxDistanceSelectWhichSurfaceIsHit) {
 TEST(SceneRaycaster, StiffnessIsTheQuantisedBarycentricInterpolationOfVertexScores) {
   // Bottom vertices 0.2, top vertices 0.9: the side faces ramp linearly in z.
   auto object = std::make_shared<SimObject>();
-  object->mesh_o = BoxMesh({0.05, 0.05, 0.05});
+  object->mesh_o = CentredBoxMesh({0.05, 0.05, 0.05});
   for (const auto& v : object->mesh_o.vertices) {
     object->vertex_stiffness.push_back(v[2] > 0 ? 0.9f : 0.2f);
   }
@@ -174,7 +175,7 @@ core::Result<SceneRaycaster> BuildWith(std::shared_ptr<SimObject> object, int in
 }
 
 std::shared_ptr<SimObject> ValidBox() {
-  return std::const_pointer_cast<SimObject>(MakeObject(BoxMesh({0.1, 0.1, 0.1}), 0.5f));
+  return std::const_pointer_cast<SimObject>(MakeObject(CentredBoxMesh({0.1, 0.1, 0.1}), 0.5f));
 }
 
 void ExpectInvalid(const core::Result<SceneRaycaster>& result, const std::string& field_part) {

@@ -10,12 +10,13 @@
 
 #include "service/mesh/mesh_check.h"
 #include "tests/sim/test_scenes.h"
+#include "tests/support/box_mesh.h"
 
 namespace softgrasp::sim {
 namespace {
 
 using test_scenes::BigTable;
-using test_scenes::BoxMesh;
+using softgrasp::testing::CentredBoxMesh;
 using test_scenes::IcosphereMesh;
 using test_scenes::MakeObject;
 using test_scenes::Translation;
@@ -179,13 +180,13 @@ TEST(Render, LabelsAndStiffnessAgreePixelByPixelForSeveralObjects) {
   SimScene scene;
   scene.support = BigTable();
   scene.objects.push_back(
-      {5, MakeObject(BoxMesh({0.04, 0.03, 0.02}), 0.3f), Translation(-0.12, 0.05, 0.02)});
+      {5, MakeObject(CentredBoxMesh({0.04, 0.03, 0.02}), 0.3f), Translation(-0.12, 0.05, 0.02)});
   scene.objects.push_back(
       {9, MakeObject(IcosphereMesh(0.04, 3), 0.8f), Translation(0.1, 0.06, 0.04)});
   // A box whose stiffness ramps along its own x axis: 0.2 at x = -hx, 1.0 at x = +hx.
   const Eigen::Vector3d ramp_half_m(0.06, 0.04, 0.025);
   auto ramp = std::make_shared<SimObject>();
-  ramp->mesh_o = BoxMesh(ramp_half_m);
+  ramp->mesh_o = CentredBoxMesh(ramp_half_m);
   for (const auto& p : ramp->mesh_o.vertices)
     ramp->vertex_stiffness.push_back(p[0] > 0 ? 1.0f : 0.2f);
   const Eigen::Isometry3d world_from_ramp =
@@ -257,7 +258,7 @@ struct NoiseScene {
   NoiseScene() {
     scene.support = BigTable();
     scene.objects.push_back(
-        {1, MakeObject(BoxMesh({0.05, 0.04, 0.03}), 0.5f), Translation(0.02, 0.01, 0.03)});
+        {1, MakeObject(CentredBoxMesh({0.05, 0.04, 0.03}), 0.5f), Translation(0.02, 0.01, 0.03)});
     scene.objects.push_back(
         {2, MakeObject(IcosphereMesh(0.035, 3), 0.2f), Translation(-0.1, -0.05, 0.035)});
   }

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "sim/dataset/dataset.h"
+#include "tests/support/temp_dir.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -19,8 +20,8 @@ TEST(RobotCli, SceneFlagRebuildsTheSpecAndSeedOfAManifest) {
   params.spec.min_objects = 2;
   params.spec.max_objects = 3;
   params.spec.support.kind = Support::Kind::kTable;
-  params.out_dir = fs::path(::testing::TempDir()) / "softgrasp_robot_cli";
-  fs::remove_all(params.out_dir);
+  const softgrasp::testing::TempDir temp("robot-cli");
+  params.out_dir = temp / "data";
   ASSERT_TRUE(GenerateDataset(params).ok());
   const fs::path manifest = params.out_dir / "shard_0000" / "scene_000000.json";
 
@@ -37,7 +38,8 @@ TEST(RobotCli, BadSceneFilesAreClearErrors) {
   RobotCommandLine cli;
   EXPECT_NE(ParseRobotArgs({"--scene", "/nonexistent/scene.json"}, &cli).find("cannot read"),
             std::string::npos);
-  const fs::path junk = fs::path(::testing::TempDir()) / "softgrasp_not_a_manifest.json";
+  const softgrasp::testing::TempDir temp("robot-cli-junk");
+  const fs::path junk = temp / "not_a_manifest.json";
   std::ofstream(junk) << R"({"objects": []})";
   EXPECT_NE(ParseRobotArgs({"--scene", junk.string()}, &cli).find("not a scene manifest"),
             std::string::npos);

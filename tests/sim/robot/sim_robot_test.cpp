@@ -3,11 +3,7 @@
 // its HTTP routes, and a loopback DDS round trip against a ServiceBridge.
 #include "sim/robot/sim_robot.h"
 
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/time.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -24,6 +20,9 @@
 #include "sim/robot/robot_http.h"
 #include "sim/robot/robot_loop.h"
 #include "tests/sim/test_scenes.h"
+#include "tests/support/box_mesh.h"
+#include "tests/support/http_client.h"
+#include "tests/support/wait_until.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -40,7 +39,7 @@ constexpr double kCameraHeightM = 0.55;
 std::shared_ptr<SimObject> Block(float stiffness, double mass_kg = 0.1) {
   auto object = std::make_shared<SimObject>();
   object->category = "block";
-  object->mesh_o = test_scenes::BoxMesh(kBlockSize / 2.0);
+  object->mesh_o = testing::CentredBoxMesh(kBlockSize / 2.0);
   object->vertex_stiffness.assign(object->mesh_o.vertices.size(), stiffness);
   object->mass_kg = mass_kg;
   return object;
@@ -297,47 +296,15 @@ TEST(SimRobot, ResetRestoresAHandMadeSceneAndRegeneratesAGeneratedOne) {
 
 // ---- HTTP ----
 
-struct Reply {
-  int status = 0;
-  std::string head;
-  std::string body;
-};
+using softgrasp::testing::HttpReply;
 
-// One request per connection (Connection: close), read to EOF.
-Reply Fetch(uint16_t port, const std::string& method, const std::string& target,
-            const std::string& body = "") {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  EXPECT_GE(fd, 0);
-  timeval timeout{10, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(port);
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  Reply reply;
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(fd);
-    ADD_FAILURE() << "connect";
-    return reply;
-  }
+// One request on its own connection.
+HttpReply Fetch(uint16_t port, const std::string& method, const std::string& target,
+                const std::string& body = "") {
   const std::string raw = method + " " + target +
                           " HTTP/1.1\r\nHost: t\r\nConnection: close\r\nContent-Length: " +
                           std::to_string(body.size()) + "\r\n\r\n" + body;
-  ::send(fd, raw.data(), raw.size(), MSG_NOSIGNAL);
-  std::string in;
-  char buffer[65536];
-  for (;;) {
-    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
-    if (n <= 0) break;
-    in.append(buffer, static_cast<std::size_t>(n));
-  }
-  ::close(fd);
-  const std::size_t end = in.find("\r\n\r\n");
-  if (end == std::string::npos || in.size() < 12) return reply;
-  reply.status = std::stoi(in.substr(9, 3));
-  reply.head = in.substr(0, end);
-  reply.body = in.substr(end + 4);
-  return reply;
+  return softgrasp::testing::HttpExchange(port, raw);
 }
 
 class ServedRobot {
@@ -365,20 +332,20 @@ TEST(SimRobotHttp, ServesTheViewTheServiceCanDecode) {
   const auto view = robot->view();
   const cv::Point px = BlockPixel(*view);
 
-  const Reply npy = Fetch(served.port(), "GET", "/depth.npy");
+  const HttpReply npy = Fetch(served.port(), "GET", "/depth.npy");
   ASSERT_EQ(npy.status, 200);
-  EXPECT_NE(npy.head.find("X-Scene-Generation: 1"), std::string::npos) << npy.head;
+  EXPECT_EQ(npy.header("X-Scene-Generation").value_or(""), "1");
   auto depth = io::DecodeDepth(npy.body);
   ASSERT_TRUE(depth.ok()) << depth.error().message;
   EXPECT_NEAR(depth.value().depth_m(px), kCameraHeightM - kBlockSize.z(), 1e-6);
 
-  const Reply png = Fetch(served.port(), "GET", "/depth.png");
+  const HttpReply png = Fetch(served.port(), "GET", "/depth.png");
   ASSERT_EQ(png.status, 200);
   auto depth_mm = io::DecodeDepth(png.body);
   ASSERT_TRUE(depth_mm.ok()) << depth_mm.error().message;
   EXPECT_NEAR(depth_mm.value().depth_m(px), 0.5, 0.0005);
 
-  const Reply intr = Fetch(served.port(), "GET", "/camera.intr");
+  const HttpReply intr = Fetch(served.port(), "GET", "/camera.intr");
   ASSERT_EQ(intr.status, 200);
   auto camera = io::ParseIntrinsicsJson(intr.body);
   ASSERT_TRUE(camera.ok()) << camera.error().message;
@@ -386,15 +353,15 @@ TEST(SimRobotHttp, ServesTheViewTheServiceCanDecode) {
   EXPECT_EQ(camera.value().cy, view->camera.cy);
   EXPECT_EQ(camera.value().width, view->camera.width);
 
-  const Reply labels = Fetch(served.port(), "GET", "/labels.png");
+  const HttpReply labels = Fetch(served.port(), "GET", "/labels.png");
   ASSERT_EQ(labels.status, 200);
   EXPECT_EQ(labels.body.substr(1, 3), "PNG");
-  const Reply stiffness = Fetch(served.port(), "GET", "/stiffness.png");
+  const HttpReply stiffness = Fetch(served.port(), "GET", "/stiffness.png");
   ASSERT_EQ(stiffness.status, 200);
 
   // A pick shows up in the next fetch.
   ASSERT_EQ(robot->Execute(CameraCommand("p", kOnBlockW)).outcome, GraspOutcome::kSucceeded);
-  const Reply scene = Fetch(served.port(), "GET", "/scene.json");
+  const HttpReply scene = Fetch(served.port(), "GET", "/scene.json");
   ASSERT_EQ(scene.status, 200);
   const auto manifest = nlohmann::json::parse(scene.body);
   EXPECT_EQ(manifest["objects_left"], 0);
@@ -408,7 +375,7 @@ TEST(SimRobotHttp, ServesTheViewTheServiceCanDecode) {
   EXPECT_EQ(Fetch(served.port(), "POST", "/reset", "not json").status, 400);
   EXPECT_EQ(Fetch(served.port(), "POST", "/reset", "{\"colour\": 1}").status, 400);
   EXPECT_EQ(robot->view()->manifest["objects_left"], 0);
-  const Reply reset = Fetch(served.port(), "POST", "/reset");
+  const HttpReply reset = Fetch(served.port(), "POST", "/reset");
   ASSERT_EQ(reset.status, 200);
   EXPECT_EQ(nlohmann::json::parse(reset.body)["objects_left"], 1);
   EXPECT_EQ(Fetch(served.port(), "GET", "/nope").status, 404);
@@ -417,15 +384,7 @@ TEST(SimRobotHttp, ServesTheViewTheServiceCanDecode) {
 
 // ---- DDS ----
 
-template <class Pred>
-bool WaitUntil(Pred&& done, double timeout_s) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return done();
-}
+using softgrasp::testing::WaitUntil;
 
 bridge::BridgeOptions LoopbackOptions() {
   bridge::BridgeOptions options;
