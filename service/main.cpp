@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "service/bridge/bridge.h"
 #include "service/core/preprocess.h"
 #include "service/http/server.h"
 #include "service/models/segmentation_model.h"

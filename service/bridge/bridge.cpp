@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "service/bridge/messages_dds.h"
+
 namespace softgrasp::bridge {
 namespace {
 

@@ -52,15 +52,6 @@ struct BridgeOptions {
 /// the tag is [A-Za-z0-9_-]*.
 std::string LoopbackConfigXml(const std::string& discovery_tag = "");
 
-/// What the service knows about one robot.
-struct RobotInfo {
-  RobotStatus status;  ///< the last heartbeat
-  /// True while the robot's status instance is ALIVE: at least one live writer. False once its
-  /// writer is gone or lost liveliness (NOT_ALIVE_NO_WRITERS) or disposed it.
-  bool alive = false;
-  double heartbeat_age_s = 0.0;  ///< local time since that heartbeat arrived
-};
-
 /// Service side: publishes commands (and their ROS 2 pose), receives results and heartbeats.
 /// Thread-safe. Not movable (DDS listeners point at it); hold it by the unique_ptr.
 class ServiceBridge {

@@ -11,9 +11,6 @@
 
 namespace softgrasp::bridge {
 
-/// Value for "it worked" where there is nothing to return.
-struct Ok {};
-
 /// Error for a failed DDS call: kInternal, message "<what>: <DDS error text> (<code>)".
 core::Error DdsError(dds_return_t code, const std::string& what);
 

@@ -1,16 +1,20 @@
 #pragma once
-/// C++ value types mirroring the DDS contracts in api/softgrasp.idl, their validation, and the
-/// conversions to and from the idlc-generated C structs. Nothing here talks to the network.
+/// C++ value types mirroring the DDS contracts in api/softgrasp.idl and their validation. Plain
+/// C++: no Cyclone DDS or generated header is included, so configuration and REST code can use
+/// these types without compiling the DDS API. The conversions to and from the idlc-generated C
+/// structs are in messages_dds.h, private to the bridge. Nothing here talks to the network.
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
-#include "api/generated/pose_stamped.h"
-#include "api/generated/softgrasp.h"
 #include "service/core/status.h"
 
 namespace softgrasp::bridge {
+
+/// Value for "it worked" where there is nothing to return.
+struct Ok {};
 
 /// Axis-aligned box in a named frame (metres).
 struct Workspace {
@@ -69,6 +73,15 @@ struct RobotStatus {
   std::int64_t stamp_unix_ns = 0;
 };
 
+/// What the service knows about one robot.
+struct RobotInfo {
+  RobotStatus status;  ///< the last heartbeat
+  /// True while the robot's status instance is ALIVE: at least one live writer. False once its
+  /// writer is gone or lost liveliness (NOT_ALIVE_NO_WRITERS) or disposed it.
+  bool alive = false;
+  double heartbeat_age_s = 0.0;  ///< local time since that heartbeat arrived
+};
+
 /// Stable lower-case names ("succeeded", "timed_out", "idle", ...), as REST shows them.
 const char* OutcomeName(GraspOutcome outcome);
 const char* RobotStateName(RobotState state);
@@ -86,45 +99,6 @@ core::Result<GraspCommand> Validate(GraspCommand command);
 core::Result<GraspResult> Validate(GraspResult result);
 core::Result<RobotStatus> Validate(RobotStatus status);
 core::Result<Workspace> Validate(Workspace workspace);
-
-/// Owns one generated C sample and frees the strings inside it (dds_sample_free with
-/// DDS_FREE_CONTENTS) when it goes. Move-only.
-template <class CType>
-class CSample {
- public:
-  explicit CSample(const dds_topic_descriptor_t* descriptor) : descriptor_(descriptor) {}
-  ~CSample() { dds_sample_free(&sample_, descriptor_, DDS_FREE_CONTENTS); }
-  CSample(const CSample&) = delete;
-  CSample& operator=(const CSample&) = delete;
-  CSample(CSample&& other) noexcept : descriptor_(other.descriptor_), sample_(other.sample_) {
-    other.sample_ = CType{};
-  }
-  CSample& operator=(CSample&&) = delete;
-
-  CType* get() { return &sample_; }
-  const CType& operator*() const { return sample_; }
-  const CType* operator->() const { return &sample_; }
-
- private:
-  const dds_topic_descriptor_t* descriptor_;
-  CType sample_{};
-};
-
-/// C++ -> C. The strings in the returned sample are copies made with dds_string_dup.
-/// Precondition: the message passed Validate (conversions do not check again).
-CSample<softgrasp_msg_GraspCommand> ToC(const GraspCommand& command);
-CSample<softgrasp_msg_GraspResult> ToC(const GraspResult& result);
-CSample<softgrasp_msg_RobotStatus> ToC(const RobotStatus& status);
-
-/// C -> C++, validated: a sample from another implementation with a NaN, an unknown enum value
-/// or a missing id is an Error, never a crash. Null strings read as "".
-core::Result<GraspCommand> FromC(const softgrasp_msg_GraspCommand& c);
-core::Result<GraspResult> FromC(const softgrasp_msg_GraspResult& c);
-core::Result<RobotStatus> FromC(const softgrasp_msg_RobotStatus& c);
-
-/// The ROS 2 geometry_msgs/PoseStamped of a command: header.stamp = issued time (sec, nanosec),
-/// header.frame_id = frame_id, pose = position and orientation. Precondition: validated command.
-CSample<geometry_msgs_msg_dds__PoseStamped_> ToPoseStamped(const GraspCommand& command);
 
 /// Nanoseconds since the Unix epoch now (system clock).
 std::int64_t UnixNowNs();

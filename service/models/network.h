@@ -1,6 +1,6 @@
 #pragma once
-/// Internal to softgrasp_models: the pix2pix networks (Isola et al. 2017) sized for CPU training.
-/// See docs/stiffness.md, "Network".
+/// Internal to the models libraries (softgrasp::models_net): the pix2pix networks (Isola et al.
+/// 2017) sized for CPU training. See docs/stiffness.md, "Network".
 
 #include <torch/torch.h>
 

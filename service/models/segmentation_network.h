@@ -1,5 +1,6 @@
 #pragma once
-/// Internal to softgrasp_models: the segmentation network (docs/segmentation.md, "Network").
+/// Internal to the models libraries (softgrasp::models_net): the segmentation network
+/// (docs/segmentation.md, "Network").
 /// A U-Net on normalised heights with four heads at the input resolution: foreground logit,
 /// instance-centre heatmap logit, centre offset (du, dv) in units of kOffsetScalePx model pixels,
 /// deformability logit.

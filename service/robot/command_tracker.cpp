@@ -11,6 +11,8 @@
 #include <unordered_set>
 #include <utility>
 
+#include "service/bridge/bridge.h"
+
 namespace softgrasp::robot {
 namespace {
 
@@ -478,6 +480,8 @@ std::optional<CommandRecord> CommandTracker::Get(const std::string& command_id) 
   }
   return out;
 }
+
+std::vector<bridge::RobotInfo> CommandTracker::Robots() const { return bridge_->Robots(); }
 
 TrackerStats CommandTracker::stats() const {
   std::lock_guard<std::mutex> lock(mutex_);

@@ -18,9 +18,15 @@
 #include <thread>
 #include <vector>
 
-#include "service/bridge/bridge.h"
+#include "service/bridge/messages.h"
 #include "service/core/status.h"
 #include "service/robot/journal.h"
+
+namespace softgrasp::bridge {
+// service/bridge/bridge.h. Only declared here: the tracker's users (REST) see plain values and
+// never compile the DDS API; whoever creates a tracker includes bridge.h to make its bridge.
+class ServiceBridge;
+}  // namespace softgrasp::bridge
 
 namespace softgrasp::robot {
 
@@ -136,7 +142,8 @@ class CommandTracker {
   /// The record of `command_id`, with kExecuting when a robot's heartbeat says so.
   std::optional<CommandRecord> Get(const std::string& command_id) const;
 
-  std::vector<bridge::RobotInfo> Robots() const { return bridge_->Robots(); }
+  /// Every robot the bridge has heard from (bridge::ServiceBridge::Robots).
+  std::vector<bridge::RobotInfo> Robots() const;
   TrackerStats stats() const;
   const TrackerOptions& options() const { return options_; }
   bridge::ServiceBridge& bridge() { return *bridge_; }

@@ -17,7 +17,7 @@
 #include <string_view>
 #include <vector>
 
-#include "service/bridge/dds.h"
+#include "service/bridge/messages.h"
 #include "service/core/status.h"
 
 namespace softgrasp::robot {

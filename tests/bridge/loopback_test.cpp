@@ -8,7 +8,9 @@
 #include <optional>
 #include <set>
 
+#include "api/generated/pose_stamped.h"
 #include "service/bridge/bridge.h"
+#include "service/bridge/messages_dds.h"
 #include "tests/bridge/bridge_test_util.h"
 
 namespace softgrasp::bridge {

@@ -7,6 +7,8 @@
 #include <cstring>
 #include <limits>
 
+#include "service/bridge/messages_dds.h"
+
 namespace softgrasp::bridge {
 namespace {
 

@@ -120,10 +120,12 @@ class HttpServer : public ::testing::Test {
     return options;
   }
 
-  /// Echoes method and path; "/boom" throws; "/block" waits for `release_`; "/slow" sleeps.
+  /// Echoes method and path; "/boom" throws a std::exception, "/boom-other" something else;
+  /// "/block" waits for `release_`; "/slow" sleeps.
   Response Handle(Request& request) {
     ++handled_;
     if (request.path == "/boom") throw std::runtime_error("secret internals");
+    if (request.path == "/boom-other") throw 42;
     if (request.path == "/block") {
       entered_.Open();
       release_.Wait();
@@ -222,6 +224,40 @@ TEST_F(HttpServer, HandlerExceptionIs500AndServingGoesOn) {
   HttpClient other(server->port());
   other.Send(Get("/other"));
   ASSERT_TRUE(other.Read().has_value());
+}
+
+TEST_F(HttpServer, HandlerExceptionOnTheIoThreadIsLoggedWithItsRequestIdToo) {
+  ServerOptions options = Options();
+  LogSink errors;
+  options.error_log = errors.Callback();
+  // Inline routes run on the I/O thread: what they throw is caught and logged the same way.
+  options.answer_inline = [](const Request& request) {
+    return request.path == "/boom" || request.path == "/boom-other";
+  };
+  auto server = StartServer(options);
+  HttpClient client(server->port());
+  client.Send(Get("/boom", "X-Request-Id: inline-1\r\n") +
+              Get("/boom-other", "X-Request-Id: inline-2\r\n"));
+  for (int i = 0; i < 2; ++i) {
+    const auto failed = client.Read();
+    ASSERT_TRUE(failed.has_value()) << i;
+    EXPECT_EQ(failed->status, 500);
+    EXPECT_EQ(failed->json()["error"]["code"], "internal");
+    EXPECT_EQ(failed->body.find("secret"), std::string::npos);
+  }
+  const auto error_lines = errors.WaitFor(2);
+  ASSERT_EQ(error_lines.size(), 2u);
+  EXPECT_NE(error_lines[0].find(" inline-1 GET /boom handler failed: secret internals"),
+            std::string::npos)
+      << error_lines[0];
+  EXPECT_NE(error_lines[1].find(" inline-2 GET /boom-other handler failed: an exception that is "
+                                "not a std::exception"),
+            std::string::npos)
+      << error_lines[1];
+  client.Send(Get("/after"));
+  const auto after = client.Read();
+  ASSERT_TRUE(after.has_value());
+  EXPECT_EQ(after->status, 200);
 }
 
 TEST_F(HttpServer, SlowClientGets408AndIsClosed) {

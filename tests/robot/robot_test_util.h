@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "api/generated/pose_stamped.h"
 #include "service/bridge/bridge.h"
 #include "tests/bridge/bridge_test_util.h"
 #include "tests/support/temp_dir.h"

@@ -8,7 +8,7 @@
 #include "service/core/preprocess.h"
 #include "sim/grasp/execute.h"
 #include "sim/render/render.h"
-#include "tests/sim/test_scenes.h"
+#include "tests/support/box_mesh.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -26,7 +26,7 @@ BlockScene MakeBlockScene() {
   b.scene.support.kind = Support::Kind::kTable;
   auto block = std::make_shared<SimObject>();
   block->category = "block";
-  block->mesh_o = test_scenes::BoxMesh(Eigen::Vector3d(0.03, 0.03, 0.025));
+  block->mesh_o = testing::CentredBoxMesh(Eigen::Vector3d(0.03, 0.03, 0.025));
   block->vertex_stiffness.assign(block->mesh_o.vertices.size(), 1.0f);
   block->mass_kg = 0.1;
   PlacedObject placed;
