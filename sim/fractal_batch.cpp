@@ -1,9 +1,9 @@
 #include "sim/fractal_batch.h"
 
-#include <fstream>
+#include <nlohmann/json.hpp>
 #include <system_error>
 
-#include <nlohmann/json.hpp>
+#include "service/cli/files.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -11,12 +11,6 @@ namespace {
 using core::ErrorCode;
 using core::MakeError;
 using nlohmann::json;
-
-bool WriteFile(const std::filesystem::path& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  return static_cast<bool>(out);
-}
 
 json Entry(const std::string& file, std::uint64_t seed, const mesh::FractalModel& m) {
   return {{"file", file},
@@ -52,8 +46,9 @@ core::Result<std::filesystem::path> GenerateFractalBatch(
     auto model = mesh::GenerateFractal(p);
     if (!model.ok()) return model.error();
     const std::string file = "fractal_" + std::to_string(p.seed) + "." + mesh::MeshFileExtension(params.format);
-    if (!WriteFile(params.out_dir / file, mesh::WriteMesh(model.value().mesh, params.format))) {
-      return MakeError(ErrorCode::kInvalidArgument, "cannot write " + (params.out_dir / file).string(), "out");
+    if (auto error = cli::WriteFile(params.out_dir / file,
+                                    mesh::WriteMesh(model.value().mesh, params.format))) {
+      return MakeError(ErrorCode::kInvalidArgument, error->message, "out");
     }
     models.push_back(Entry(file, p.seed, model.value()));
     if (progress) progress(i + 1);
@@ -70,8 +65,8 @@ core::Result<std::filesystem::path> GenerateFractalBatch(
                       {"fit_fraction", params.model.fit_fraction},
                       {"models", models}};
   const std::filesystem::path index_path = params.out_dir / "index.json";
-  if (!WriteFile(index_path, index.dump(2) + "\n")) {
-    return MakeError(ErrorCode::kInvalidArgument, "cannot write " + index_path.string(), "out");
+  if (auto error = cli::WriteFile(index_path, index.dump(2) + "\n")) {
+    return MakeError(ErrorCode::kInvalidArgument, error->message, "out");
   }
   return index_path;
 }

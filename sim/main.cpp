@@ -1,14 +1,13 @@
 // softgrasp-sim: the simulator's command line: `generate` (datasets of simulated scenes),
 // `fractals` (batches of fractal training meshes) and `robot` (a simulated robot on the DDS bus).
 // Parsing only; the work is in the libraries.
-#include <cstdlib>
-#include <fstream>
 #include <iostream>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
 
+#include "service/cli/args.h"
+#include "service/cli/files.h"
 #include "service/io/depth_codec.h"
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/user_objects.h"
@@ -18,7 +17,7 @@
 
 namespace {
 
-using softgrasp::core::Result;
+namespace cli = softgrasp::cli;
 namespace mesh = softgrasp::mesh;
 namespace io = softgrasp::io;
 namespace sim = softgrasp::sim;
@@ -45,89 +44,58 @@ constexpr const char* kUsage =
     "  F: obj (default), ply, ply_ascii, ply_binary, stl, stl_ascii, stl_binary.\n"
     "  Writes fractal_<seed>.<ext> for seeds S..S+N-1 and index.json (docs/fractals.md).\n";
 
-bool ParseDouble(const std::string& text, double* out) {
-  char* end = nullptr;
-  *out = std::strtod(text.c_str(), &end);
-  return !text.empty() && end == text.c_str() + text.size();
-}
-
-bool ParseInt(const std::string& text, long long* out) {
-  char* end = nullptr;
-  *out = std::strtoll(text.c_str(), &end, 10);
-  return !text.empty() && end == text.c_str() + text.size();
-}
-
-// "N" or "MIN-MAX".
-bool ParseRange(const std::string& value, long long* lo, long long* hi) {
-  const auto dash = value.find('-');
-  if (dash == std::string::npos) return ParseInt(value, lo) && (*hi = *lo, true);
-  return ParseInt(value.substr(0, dash), lo) && ParseInt(value.substr(dash + 1), hi);
-}
-
 // Returns an error message, or "" when `params` is filled.
-std::string ParseGenerateArgs(const std::vector<std::string>& args, sim::DatasetParams* params) {
-  bool have_out = false;
-  bool have_scenes = false;
+std::string ParseGenerateArgs(std::vector<std::string> argv, sim::DatasetParams* params) {
+  cli::Args args(std::move(argv));
   params->spec.render.noise.enabled = true;
-  for (std::size_t i = 0; i < args.size(); i += 2) {
-    const std::string& flag = args[i];
-    if (i + 1 >= args.size()) return flag + " needs a value";
-    const std::string& value = args[i + 1];
-    long long n = 0;
-    long long m = 0;
-    double x = 0;
-    if (flag == "--scenes" && ParseInt(value, &n) && n >= 1 && n <= 10000000) {
-      params->scenes = static_cast<int>(n);
-      have_scenes = true;
-    } else if (flag == "--seed" && ParseInt(value, &n) && n >= 0) {
-      params->seed = static_cast<std::uint64_t>(n);
-    } else if (flag == "--objects") {
-      if (!ParseRange(value, &n, &m) || n < 1 || m > sim::kMaxObjectsPerScene || n > m)
-        return "--objects must be N or MIN-MAX within 1-" +
-               std::to_string(sim::kMaxObjectsPerScene);
-      params->spec.min_objects = static_cast<int>(n);
-      params->spec.max_objects = static_cast<int>(m);
-    } else if (flag == "--split" && (value == "train" || value == "val")) {
-      params->spec.split = value == "train" ? sim::ShapeSplit::kTrain : sim::ShapeSplit::kVal;
-    } else if (flag == "--support" && (value == "bin" || value == "table")) {
-      params->spec.support.kind =
-          value == "bin" ? sim::Support::Kind::kBin : sim::Support::Kind::kTable;
-    } else if (flag == "--noise" && (value == "on" || value == "off")) {
-      params->spec.render.noise.enabled = value == "on";
-    } else if (flag == "--fractals" && ParseDouble(value, &x) && x >= 0.0 && x <= 1.0) {
-      params->spec.fractal_probability = x;
-    } else if (flag == "--fractal-stiffness" && ParseDouble(value, &x) && x >= 0.1 && x <= 1.0) {
-      params->spec.fractal_stiffness = static_cast<float>(x);
-    } else if (flag == "--user-mesh") {
-      auto user = sim::ParseUserObjectArg(value);
-      if (!user.ok()) return "--user-mesh " + value + ": " + user.error().message;
-      auto object = sim::LoadUserObject(user.value());
-      if (!object.ok()) return "--user-mesh " + value + ": " + object.error().message;
-      params->spec.user_objects.push_back(
-          std::make_shared<const sim::SimObject>(std::move(object).value()));
-    } else if (flag == "--camera-height" && ParseDouble(value, &x) && x > 0.05 && x <= 5.0) {
-      params->spec.render.world_from_camera = sim::OverheadCameraPose(x);
-    } else if (flag == "--intrinsics") {
-      std::ifstream in(value);
-      std::stringstream text;
-      text << in.rdbuf();
-      auto camera = io::ParseIntrinsicsJson(text.str());
-      if (!in || !camera.ok()) {
-        return "--intrinsics " + value + ": " +
-               (in ? camera.error().message : "cannot read the file");
-      }
-      params->spec.render.camera = camera.value();
-    } else if (flag == "--shard-size" && ParseInt(value, &n) && n >= 1 && n <= 100000) {
-      params->shard_size = static_cast<int>(n);
-    } else if (flag == "--out") {
-      params->out_dir = value;
-      have_out = true;
-    } else {
-      return "bad argument " + flag + " " + value;
-    }
+  if (!args.Int("--scenes", 1, 10000000, &params->scenes)) {
+    args.Fail("--scenes N is required", "--scenes");
   }
-  if (!have_scenes) return "--scenes is required";
-  return have_out ? "" : "--out is required";
+  std::string out;
+  args.Required("--out", "DIR", &out);
+  params->out_dir = out;
+  args.Int("--seed", 0, cli::kNoLimit, &params->seed);
+  args.Span("--objects", 1, sim::kMaxObjectsPerScene, &params->spec.min_objects,
+            &params->spec.max_objects);
+  args.Choice<sim::ShapeSplit>("--split",
+                               {{"train", sim::ShapeSplit::kTrain}, {"val", sim::ShapeSplit::kVal}},
+                               &params->spec.split);
+  args.Choice<sim::Support::Kind>(
+      "--support", {{"bin", sim::Support::Kind::kBin}, {"table", sim::Support::Kind::kTable}},
+      &params->spec.support.kind);
+  args.Choice<bool>("--noise", {{"on", true}, {"off", false}}, &params->spec.render.noise.enabled);
+  args.Number("--fractals", cli::Bounds::Closed(0, 1), &params->spec.fractal_probability);
+  float fractal_stiffness = 0;
+  if (args.Number("--fractal-stiffness", cli::Bounds::Closed(0.1, 1), &fractal_stiffness)) {
+    params->spec.fractal_stiffness = fractal_stiffness;
+  }
+  double camera_height = 0;
+  if (args.Number("--camera-height", cli::Bounds::LeftOpen(0.05, 5), &camera_height)) {
+    params->spec.render.world_from_camera = sim::OverheadCameraPose(camera_height);
+  }
+  args.Int("--shard-size", 1, 100000, &params->shard_size);
+  std::string intrinsics;
+  args.Text("--intrinsics", &intrinsics);
+  const std::vector<std::string> user_meshes = args.All("--user-mesh");
+  if (const auto error = args.Finish()) return error->message;
+
+  // The files named on the command line, read once every argument is known to be well-formed.
+  if (!intrinsics.empty()) {
+    auto text = cli::ReadFile(intrinsics);
+    if (!text.ok()) return "--intrinsics: " + text.error().message;
+    auto camera = io::ParseIntrinsicsJson(text.value());
+    if (!camera.ok()) return "--intrinsics " + intrinsics + ": " + camera.error().message;
+    params->spec.render.camera = camera.value();
+  }
+  for (const std::string& value : user_meshes) {
+    auto user = sim::ParseUserObjectArg(value);
+    if (!user.ok()) return "--user-mesh " + value + ": " + user.error().message;
+    auto object = sim::LoadUserObject(user.value());
+    if (!object.ok()) return "--user-mesh " + value + ": " + object.error().message;
+    params->spec.user_objects.push_back(
+        std::make_shared<const sim::SimObject>(std::move(object).value()));
+  }
+  return "";
 }
 
 int RunGenerate(const std::vector<std::string>& args) {
@@ -147,40 +115,30 @@ int RunGenerate(const std::vector<std::string>& args) {
 }
 
 // Returns an error message, or "" when `params` is filled.
-std::string ParseFractalsArgs(const std::vector<std::string>& args,
-                              sim::FractalBatchParams* params) {
-  bool have_out = false;
-  for (std::size_t i = 0; i < args.size(); i += 2) {
-    const std::string& flag = args[i];
-    if (i + 1 >= args.size()) return flag + " needs a value";
-    const std::string& value = args[i + 1];
-    long long n = 0;
-    double x = 0;
-    if (flag == "--count" && ParseInt(value, &n) && n >= 1 && n <= 1000000) {
-      params->count = static_cast<int>(n);
-    } else if (flag == "--seed" && ParseInt(value, &n) && n >= 0) {
-      params->seed = static_cast<std::uint64_t>(n);
-    } else if (flag == "--alpha" && ParseDouble(value, &x)) {
-      params->model.alpha = x;
-    } else if (flag == "--sigma" && ParseDouble(value, &x)) {
-      params->model.sigma = x;
-    } else if (flag == "--points" && ParseInt(value, &n) && n > 0 && n <= 100000000) {
-      params->model.num_points = static_cast<int>(n);
-    } else if (flag == "--maps") {
-      long long lo = 0, hi = 0;
-      if (!ParseRange(value, &lo, &hi)) return "--maps must be N or MIN-MAX";
-      params->model.min_maps = static_cast<int>(lo);
-      params->model.max_maps = static_cast<int>(hi);
-    } else if (flag == "--format" && mesh::MeshFormatFromName(value)) {
-      params->format = *mesh::MeshFormatFromName(value);
-    } else if (flag == "--out") {
-      params->out_dir = value;
-      have_out = true;
+std::string ParseFractalsArgs(std::vector<std::string> argv, sim::FractalBatchParams* params) {
+  cli::Args args(std::move(argv));
+  std::string out;
+  args.Required("--out", "DIR", &out);
+  params->out_dir = out;
+  args.Int("--count", 1, 1000000, &params->count);
+  args.Int("--seed", 0, cli::kNoLimit, &params->seed);
+  args.Number("--alpha", cli::Bounds::Any(), &params->model.alpha);
+  args.Number("--sigma", cli::Bounds::Any(), &params->model.sigma);
+  args.Int("--points", 1, 100000000, &params->model.num_points);
+  args.Span("--maps", 1, 32, &params->model.min_maps, &params->model.max_maps);
+  std::string format;
+  if (args.Text("--format", &format)) {
+    if (const auto parsed = mesh::MeshFormatFromName(format)) {
+      params->format = *parsed;
     } else {
-      return "bad argument " + flag + " " + value;
+      args.Fail(
+          "--format must be one of obj, ply, ply_ascii, ply_binary, stl, stl_ascii, "
+          "stl_binary",
+          "--format");
     }
   }
-  return have_out ? "" : "--out is required";
+  const auto error = args.Finish();
+  return error ? error->message : "";
 }
 
 int RunFractals(const std::vector<std::string>& args) {

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <system_error>
 
+#include "service/cli/files.h"
 #include "service/io/depth_codec.h"
 
 namespace softgrasp::sim {
@@ -15,12 +15,6 @@ namespace {
 using core::ErrorCode;
 using core::MakeError;
 using nlohmann::json;
-
-bool WriteFile(const std::filesystem::path& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  return static_cast<bool>(out);
-}
 
 std::string Numbered(const char* prefix, int width, int n) {
   char buffer[32];
@@ -92,8 +86,8 @@ std::optional<core::Error> WriteSceneFiles(const SceneSpec& spec, const Generate
       {stem + ".json", manifest.dump(2) + "\n"},
   };
   for (const auto& [name, bytes] : files) {
-    if (!WriteFile(dir / name, bytes)) {
-      return MakeError(ErrorCode::kInvalidArgument, "cannot write " + (dir / name).string(), "out");
+    if (auto error = cli::WriteFile(dir / name, bytes)) {
+      return MakeError(ErrorCode::kInvalidArgument, error->message, "out");
     }
   }
   return std::nullopt;
@@ -149,8 +143,8 @@ core::Result<std::filesystem::path> GenerateDataset(const DatasetParams& params,
       {"entries", scenes},
   };
   const std::filesystem::path index_path = params.out_dir / "index.json";
-  if (!WriteFile(index_path, index.dump(2) + "\n")) {
-    return MakeError(ErrorCode::kInvalidArgument, "cannot write " + index_path.string(), "out");
+  if (auto error = cli::WriteFile(index_path, index.dump(2) + "\n")) {
+    return MakeError(ErrorCode::kInvalidArgument, error->message, "out");
   }
   return index_path;
 }

@@ -1,12 +1,11 @@
 #include "sim/dataset/user_objects.h"
 
 #include <cmath>
-#include <cstdlib>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
+#include "service/cli/args.h"
+#include "service/cli/files.h"
 #include "service/mesh/mesh_io.h"
 #include "sim/catalogue/catalogue.h"
 
@@ -16,12 +15,12 @@ namespace {
 using core::ErrorCode;
 using core::MakeError;
 
-core::Result<std::string> ReadFile(const std::filesystem::path& path, const std::string& field) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return MakeError(ErrorCode::kInvalidArgument, "cannot read " + path.string(), field);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+/// The whole file; a failure is an invalid argument naming `field` (the path came from the user).
+core::Result<std::string> ReadUserFile(const std::filesystem::path& path,
+                                       const std::string& field) {
+  auto bytes = cli::ReadFile(path);
+  if (!bytes.ok()) return MakeError(ErrorCode::kInvalidArgument, bytes.error().message, field);
+  return bytes;
 }
 
 // Welds vertices with exactly equal coordinates (meshes exported as triangle soups, one vertex
@@ -52,9 +51,8 @@ core::Result<UserObjectSpec> ParseUserObjectArg(const std::string& arg) {
   } else {
     spec.mesh_path = arg.substr(0, colon);
     const std::string tail = arg.substr(colon + 1);
-    char* end = nullptr;
-    const double k = std::strtod(tail.c_str(), &end);
-    if (!tail.empty() && end == tail.c_str() + tail.size()) {
+    double k = 0;
+    if (cli::ParseNumber(tail, &k)) {
       if (!(k >= kMinStiffness && k <= kMaxStiffness)) {
         return MakeError(ErrorCode::kInvalidArgument, "stiffness must be in [0.1, 1]", "stiffness");
       }
@@ -69,7 +67,7 @@ core::Result<UserObjectSpec> ParseUserObjectArg(const std::string& arg) {
 }
 
 core::Result<SimObject> LoadUserObject(const UserObjectSpec& spec) {
-  auto bytes = ReadFile(spec.mesh_path, "mesh_path");
+  auto bytes = ReadUserFile(spec.mesh_path, "mesh_path");
   if (!bytes.ok()) return bytes.error();
   auto mesh = mesh::ReadMesh(bytes.value());
   if (!mesh.ok()) {
@@ -81,7 +79,7 @@ core::Result<SimObject> LoadUserObject(const UserObjectSpec& spec) {
   std::vector<float> vertex_stiffness;
   nlohmann::json shape = {{"file", spec.mesh_path.filename().string()}};
   if (!spec.stiffness_path.empty()) {
-    auto text = ReadFile(spec.stiffness_path, "stiffness_path");
+    auto text = ReadUserFile(spec.stiffness_path, "stiffness_path");
     if (!text.ok()) return text.error();
     const nlohmann::json j =
         nlohmann::json::parse(text.value(), nullptr, /*allow_exceptions=*/false);

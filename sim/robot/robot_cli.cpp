@@ -2,13 +2,12 @@
 
 #include <signal.h>
 
-#include <cstdlib>
 #include <exception>
-#include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
+#include "service/cli/args.h"
+#include "service/cli/files.h"
 #include "sim/dataset/scene_gen.h"
 #include "sim/robot/robot_http.h"
 #include "sim/robot/robot_loop.h"
@@ -28,30 +27,16 @@ constexpr const char* kUsage =
     "  results and removes what it picks. Serves the camera's view on http://H:P (default\n"
     "  127.0.0.1:8081; port 0 picks one): GET /depth.npy /depth.png /camera.intr /scene.json\n"
     "  /stiffness.png /labels.png, POST /reset. --scene rebuilds the scene of a manifest\n"
-    "  (scene_NNNNNN.json) written by `softgrasp-sim generate`; flags after it still apply.\n"
+    "  (scene_NNNNNN.json) written by `softgrasp-sim generate`; the other options still apply.\n"
     "  --dds-config takes what CYCLONEDDS_URI takes\n"
     "  (default: CYCLONEDDS_URI, else Cyclone's defaults). SIGINT/SIGTERM stop it.\n";
 
-bool ParseInt(const std::string& text, long long* out) {
-  char* end = nullptr;
-  *out = std::strtoll(text.c_str(), &end, 10);
-  return !text.empty() && end == text.c_str() + text.size();
-}
-
-bool ParseRange(const std::string& value, long long* lo, long long* hi) {
-  const auto dash = value.find('-');
-  if (dash == std::string::npos) return ParseInt(value, lo) && (*hi = *lo, true);
-  return ParseInt(value.substr(0, dash), lo) && ParseInt(value.substr(dash + 1), hi);
-}
-
 // --scene FILE: the scene of a `softgrasp-sim generate` manifest, rebuilt from its spec and seed.
 std::string LoadSceneManifest(const std::string& path, RobotCommandLine* out) {
-  std::ifstream in(path);
-  if (!in) return "--scene: cannot read " + path;
-  std::stringstream text;
-  text << in.rdbuf();
+  auto text = cli::ReadFile(path);
+  if (!text.ok()) return "--scene: " + text.error().message;
   const nlohmann::json manifest =
-      nlohmann::json::parse(text.str(), nullptr, /*allow_exceptions=*/false);
+      nlohmann::json::parse(text.value(), nullptr, /*allow_exceptions=*/false);
   if (!manifest.is_object() || !manifest.contains("spec") || !manifest.contains("scene_seed") ||
       !manifest["scene_seed"].is_number_unsigned()) {
     return "--scene: " + path + " is not a scene manifest of softgrasp-sim generate";
@@ -67,48 +52,37 @@ std::string LoadSceneManifest(const std::string& path, RobotCommandLine* out) {
 
 const char* RobotUsage() { return kUsage; }
 
-std::string ParseRobotArgs(const std::vector<std::string>& args, RobotCommandLine* out) {
+std::string ParseRobotArgs(const std::vector<std::string>& argv, RobotCommandLine* out) {
+  cli::Args args(argv);
   out->spec.render.noise.enabled = true;
   out->http.host = "127.0.0.1";
   out->http.port = 8081;
-  for (std::size_t i = 0; i < args.size(); i += 2) {
-    const std::string& flag = args[i];
-    if (i + 1 >= args.size()) return flag + " needs a value";
-    const std::string& value = args[i + 1];
-    long long n = 0;
-    long long m = 0;
-    if (flag == "--scene-seed" && ParseInt(value, &n) && n >= 0) {
-      out->scene_seed = static_cast<std::uint64_t>(n);
-    } else if (flag == "--scene") {
-      if (const std::string problem = LoadSceneManifest(value, out); !problem.empty())
-        return problem;
-    } else if (flag == "--objects") {
-      if (!ParseRange(value, &n, &m) || n < 1 || m > sim::kMaxObjectsPerScene || n > m)
-        return "--objects must be N or MIN-MAX within 1-" +
-               std::to_string(sim::kMaxObjectsPerScene);
-      out->spec.min_objects = static_cast<int>(n);
-      out->spec.max_objects = static_cast<int>(m);
-    } else if (flag == "--support" && (value == "bin" || value == "table")) {
-      out->spec.support.kind = value == "bin" ? Support::Kind::kBin : Support::Kind::kTable;
-    } else if (flag == "--noise" && (value == "on" || value == "off")) {
-      out->spec.render.noise.enabled = value == "on";
-    } else if (flag == "--robot-id") {
-      if (value.empty() || value.size() > bridge::kMaxIdBytes)
-        return "--robot-id must be 1-256 bytes";
-      out->robot_id = value;
-    } else if (flag == "--domain" && ParseInt(value, &n) && n >= 0 && n <= 232) {
-      out->bridge.domain_id = static_cast<int>(n);
-    } else if (flag == "--dds-config") {
-      out->bridge.config = value;
-    } else if (flag == "--http-host" && !value.empty()) {
-      out->http.host = value;
-    } else if (flag == "--http-port" && ParseInt(value, &n) && n >= 0 && n <= 65535) {
-      out->http.port = static_cast<std::uint16_t>(n);
-    } else {
-      return "bad argument " + flag + " " + value;
+  // The manifest first: the options below change the scene it describes.
+  std::string manifest;
+  if (args.Text("--scene", &manifest)) {
+    if (const std::string problem = LoadSceneManifest(manifest, out); !problem.empty()) {
+      return problem;
     }
   }
-  return "";
+  args.Int("--scene-seed", 0, cli::kNoLimit, &out->scene_seed);
+  args.Span("--objects", 1, kMaxObjectsPerScene, &out->spec.min_objects, &out->spec.max_objects);
+  args.Choice<Support::Kind>("--support",
+                             {{"bin", Support::Kind::kBin}, {"table", Support::Kind::kTable}},
+                             &out->spec.support.kind);
+  args.Choice<bool>("--noise", {{"on", true}, {"off", false}}, &out->spec.render.noise.enabled);
+  if (args.Text("--robot-id", &out->robot_id) &&
+      (out->robot_id.empty() || out->robot_id.size() > bridge::kMaxIdBytes)) {
+    args.Fail("--robot-id must be 1-" + std::to_string(bridge::kMaxIdBytes) + " bytes",
+              "--robot-id");
+  }
+  args.Int("--domain", 0, 232, &out->bridge.domain_id);
+  args.Text("--dds-config", &out->bridge.config);
+  if (args.Text("--http-host", &out->http.host) && out->http.host.empty()) {
+    args.Fail("--http-host must not be empty", "--http-host");
+  }
+  args.Int("--http-port", 0, 65535, &out->http.port);
+  const auto error = args.Finish();
+  return error ? error->message : "";
 }
 
 int RunRobotCommand(const std::vector<std::string>& args) {

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -11,10 +10,11 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
+#include "service/cli/args.h"
 #include "service/core/fge_stiffness.h"
-#include "service/engine/engine.h"
 #include "service/core/metrics.h"
 #include "service/core/preprocess.h"
+#include "service/engine/engine.h"
 #include "service/models/dataset.h"
 #include "service/models/stiffness_model.h"
 #include "sim/dataset/scene_gen.h"
@@ -30,36 +30,6 @@ using nlohmann::json;
 int Fail(const std::string& message) {
   std::cerr << "softgrasp-train evaluate: " << message << "\n";
   return 2;
-}
-
-bool Take(std::vector<std::string>* args, const std::string& name, std::string* value) {
-  for (std::size_t i = 0; i + 1 < args->size(); ++i) {
-    if ((*args)[i] == name) {
-      *value = (*args)[i + 1];
-      args->erase(args->begin() + static_cast<std::ptrdiff_t>(i),
-                  args->begin() + static_cast<std::ptrdiff_t>(i) + 2);
-      return true;
-    }
-  }
-  return false;
-}
-
-bool ParseCount(const std::string& s, int* out) {
-  char* end = nullptr;
-  const long v = std::strtol(s.c_str(), &end, 10);
-  if (s.empty() || *end != '\0' || v < 0 || v > 1000000) return false;
-  *out = static_cast<int>(v);
-  return true;
-}
-
-
-/// A whole-string finite decimal number ("", "1x", "inf" and "nan" are not).
-bool ParseNumber(const std::string& text, double* out) {
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || !std::isfinite(v)) return false;
-  *out = v;
-  return true;
 }
 
 json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
@@ -336,38 +306,25 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
 
 }  // namespace
 
-int RunEvaluate(std::vector<std::string> args) {
-  std::string model_path, compare_path, data, train_data, value;
+int RunEvaluate(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
+  std::string model_path, compare_path, data, train_data;
   int max_scenes = 0;
   int grasp_scenes = 50;
   int threads = 2;
   double constant = std::nan("");
-  if (!Take(&args, "--model", &model_path)) return Fail("--model MODEL is required");
-  if (!Take(&args, "--data", &data)) return Fail("--data VALDIR is required");
-  Take(&args, "--train-data", &train_data);
-  Take(&args, "--compare", &compare_path);
-  if (Take(&args, "--constant", &value) &&
-      (!ParseNumber(value, &constant) || !(constant >= 0 && constant <= 1))) {
-    return Fail("--constant in [0, 1]");
-  }
-  if (Take(&args, "--scenes", &value) && !ParseCount(value, &max_scenes)) {
-    return Fail("--scenes must be a count");
-  }
-  if (Take(&args, "--grasp-scenes", &value) && !ParseCount(value, &grasp_scenes)) {
-    return Fail("--grasp-scenes must be a count");
-  }
-  const bool per_grasp = std::find(args.begin(), args.end(), "--per-grasp") != args.end();
-  args.erase(std::remove(args.begin(), args.end(), "--per-grasp"), args.end());
   core::StiffnessFgeParams stiffness_params;
-  if (Take(&args, "--centre-weight", &value) &&
-      (!ParseNumber(value, &stiffness_params.centre_weight) ||
-       !(stiffness_params.centre_weight >= 0))) {
-    return Fail("--centre-weight must be a number >= 0");
-  }
-  if (Take(&args, "--threads", &value) && (!ParseCount(value, &threads) || threads < 1)) {
-    return Fail("--threads must be >= 1");
-  }
-  if (!args.empty()) return Fail("unknown argument " + args.front());
+  args.Required("--model", "MODEL", &model_path);
+  args.Required("--data", "VALDIR", &data);
+  args.Text("--train-data", &train_data);
+  args.Text("--compare", &compare_path);
+  args.Number("--constant", cli::Bounds::Closed(0, 1), &constant);
+  args.Count("--scenes", &max_scenes);
+  args.Count("--grasp-scenes", &grasp_scenes);
+  const bool per_grasp = args.Flag("--per-grasp");
+  args.Number("--centre-weight", cli::Bounds::AtLeast(0), &stiffness_params.centre_weight);
+  args.Int("--threads", 1, 256, &threads);
+  if (const auto error = args.Finish()) return Fail(error->message);
   if (train_data.empty() && !std::isfinite(constant)) {
     return Fail("the constant baseline needs --train-data DIR (its mean) or --constant C");
   }

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -10,6 +9,8 @@
 #include <optional>
 #include <string>
 
+#include "service/cli/args.h"
+#include "service/cli/files.h"
 #include "service/core/fge_deformability.h"
 #include "service/engine/engine.h"
 #include "service/models/segmentation_model.h"
@@ -18,7 +19,6 @@
 #include "sim/grasp/execute.h"
 #include "sim/progress.h"
 #include "sim/render/render.h"
-#include "tools/train/args.h"
 #include "tools/train/bootstrap.h"
 
 namespace softgrasp::tools {
@@ -458,35 +458,29 @@ void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
 }  // namespace
 
 int RunEvaluateTasks(std::vector<std::string> argv) {
-  Args args{std::move(argv)};
-  std::string segmentation_path, stiffness_path, out_path, tasks_text = "clutter,brushes,obstacles",
-                                                           value;
-  long long clutter_scenes = 600, brush_scenes = 100, obstacle_scenes = 100, bins = 100,
-            max_attempts = 30, seed = 7, threads = 2, stroke_mm = 85;
-  if (!args.Take("--segmentation-model", &segmentation_path)) {
-    return Fail("--segmentation-model FILE is required");
-  }
-  args.Take("--stiffness-model", &stiffness_path);
-  args.Take("--out", &out_path);
-  args.Take("--tasks", &tasks_text);
-  std::string openings_text;
-  args.Take("--openings", &openings_text);
-  const std::pair<const char*, long long*> counts[] = {
-      {"--clutter-scenes", &clutter_scenes}, {"--brush-scenes", &brush_scenes},
-      {"--obstacle-scenes", &obstacle_scenes}, {"--bins", &bins},
-      {"--max-attempts", &max_attempts},     {"--seed", &seed},
-      {"--threads", &threads},               {"--stroke-mm", &stroke_mm}};
-  for (const auto& [name, target] : counts) {
-    if (args.Take(name, &value) && !ParseInt(value, 0, 1000000, target)) {
-      return Fail(std::string(name) + " must be a count");
-    }
-  }
-  if (threads < 1) return Fail("--threads must be >= 1");
-  if (stroke_mm < 10 || stroke_mm > 300) return Fail("--stroke-mm must be in 10..300");
+  cli::Args args(std::move(argv));
+  std::string segmentation_path, stiffness_path, out_path, openings_text,
+      tasks_text = "clutter,brushes,obstacles";
+  int clutter_scenes = 600, brush_scenes = 100, obstacle_scenes = 100, bins = 100,
+      max_attempts = 30, threads = 2, stroke_mm = 85;
+  std::uint64_t seed = 7;
+  args.Required("--segmentation-model", "FILE", &segmentation_path);
+  args.Text("--stiffness-model", &stiffness_path);
+  args.Text("--out", &out_path);
+  args.Text("--tasks", &tasks_text);
+  args.Text("--openings", &openings_text);
+  args.Count("--clutter-scenes", &clutter_scenes);
+  args.Count("--brush-scenes", &brush_scenes);
+  args.Count("--obstacle-scenes", &obstacle_scenes);
+  args.Count("--bins", &bins);
+  args.Count("--max-attempts", &max_attempts);
+  args.Int("--seed", 0, cli::kNoLimit, &seed);
+  args.Int("--threads", 1, 256, &threads);
+  args.Int("--stroke-mm", 10, 300, &stroke_mm);
   const bool per_grasp = args.Flag("--per-grasp");
+  if (const auto error = args.Finish()) return Fail(error->message);
   core::Gripper gripper;  // planning and execution: the same one
   gripper.opening_stroke_m = stroke_mm * 1e-3;
-  if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front());
   std::vector<Task> tasks;
   for (std::size_t start = 0; start <= tasks_text.size();) {
     const std::size_t comma = std::min(tasks_text.find(',', start), tasks_text.size());
@@ -510,7 +504,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     for (std::size_t start = 0; start <= openings_text.size();) {
       const std::size_t comma = std::min(openings_text.find(',', start), openings_text.size());
       double f = 0;
-      if (!ParseDouble(openings_text.substr(start, comma - start), &f) || !(f > 0 && f <= 1) ||
+      if (!cli::ParseNumber(openings_text.substr(start, comma - start), &f) || !(f > 0 && f <= 1) ||
           (!deformability.opening_fractions.empty() &&
            !(f > deformability.opening_fractions.back()))) {
         return Fail("--openings takes increasing fractions of the stroke in (0, 1], "
@@ -521,8 +515,8 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     }
   }
 
-  models::SetTorchThreads(static_cast<int>(threads));
-  cv::setNumThreads(static_cast<int>(threads));
+  models::SetTorchThreads(threads);
+  cv::setNumThreads(threads);
   Models models{{}, deformability};
   auto segmentation = models::SegmentationModel::Load(segmentation_path);
   if (!segmentation.ok()) return Fail(segmentation.error().message);
@@ -551,9 +545,9 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
               {"tasks", json::object()}};
   for (const Task task : tasks) {
     const sim::SceneSpec spec = TaskSpec(task);
-    const int wanted = static_cast<int>(task == Task::kClutter   ? clutter_scenes
-                                        : task == Task::kBrushes ? brush_scenes
-                                                                 : obstacle_scenes);
+    const int wanted = task == Task::kClutter   ? clutter_scenes
+                       : task == Task::kBrushes ? brush_scenes
+                                                : obstacle_scenes;
     const cv::Mat1b roi = sim::BinWorkspaceRoi(spec, spec.render.camera, kBinMarginPx);
     std::vector<Stats> stats(planners.size());
     int used = 0, skipped = 0;
@@ -561,8 +555,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     for (int i = 0; used < wanted && i < 5 * wanted + 10; ++i) {
       bar.Update(used);
       const std::uint64_t scene_seed =
-          sim::SceneSeed(static_cast<std::uint64_t>(seed) + static_cast<int>(task) * 1000003u, i,
-                         sim::ShapeSplit::kVal);
+          sim::SceneSeed(seed + static_cast<int>(task) * 1000003u, i, sim::ShapeSplit::kVal);
       auto generated = sim::GenerateScene(spec, scene_seed);
       if (!generated.ok()) return Fail(generated.error().message);
       const sim::GeneratedScene& g = generated.value();
@@ -598,18 +591,18 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     }
     if (task == Task::kClutter && bins > 0) {
       std::vector<ClearingStats> clearing(planners.size());
-      sim::ProgressBar bin_bar("bin clearing", static_cast<int>(bins));
+      sim::ProgressBar bin_bar("bin clearing", bins);
       for (int b = 0; b < bins; ++b) {
         bin_bar.Update(b);
-        auto generated = sim::GenerateScene(
-            spec, sim::SceneSeed(static_cast<std::uint64_t>(seed) + 77u, b, sim::ShapeSplit::kVal));
+        auto generated =
+            sim::GenerateScene(spec, sim::SceneSeed(seed + 77u, b, sim::ShapeSplit::kVal));
         if (!generated.ok()) return Fail(generated.error().message);
         for (std::size_t p = 0; p < planners.size(); ++p) {
-          ClearBin(generated.value(), spec, planners[p], models, gripper,
-                   static_cast<int>(max_attempts), &clearing[p]);
+          ClearBin(generated.value(), spec, planners[p], models, gripper, max_attempts,
+                   &clearing[p]);
         }
       }
-      bin_bar.Update(static_cast<int>(bins));
+      bin_bar.Update(bins);
       json bin_json = json::object();
       for (std::size_t p = 0; p < planners.size(); ++p) {
         bin_json[planners[p].name] = clearing[p].ToJson();
@@ -621,9 +614,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
   const std::string text = out.dump(2);
   std::cout << text << std::endl;
   if (!out_path.empty()) {
-    std::ofstream file(out_path);
-    file << text << "\n";
-    if (!file) return Fail("cannot write " + out_path);
+    if (const auto error = cli::WriteFile(out_path, text + "\n")) return Fail(error->message);
   }
   return 0;
 }

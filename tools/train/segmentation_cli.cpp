@@ -8,13 +8,13 @@
 #include <memory>
 #include <sstream>
 
+#include "service/cli/args.h"
 #include "service/models/dataset.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/segmentation_trainer.h"
 #include "service/models/stiffness_model.h"
 #include "service/models/trainer.h"
 #include "sim/progress.h"
-#include "tools/train/args.h"
 
 namespace softgrasp::tools {
 
@@ -71,57 +71,29 @@ core::Result<std::vector<models::SceneDataset>> OpenAll(const std::string& dirs)
 }  // namespace
 
 int RunSegmentationTrain(std::vector<std::string> argv) {
-  Args args{std::move(argv)};
+  cli::Args args(std::move(argv));
   models::SegmentationTrainOptions o;
-  std::string data, out, value;
-  long long n = 0;
+  std::string data, out;
   int threads = 2, max_scenes = 0;
-  if (!args.Take("--data", &data)) return Fail("--data DIR is required");
-  if (!args.Take("--out", &out)) return Fail("--out MODEL is required");
+  args.Required("--data", "DIR", &data);
+  args.Required("--out", "MODEL", &out);
   o.out = out;
-  struct IntFlag {
-    const char* name;
-    long long lo, hi;
-    int* target;
-  };
-  const IntFlag int_flags[] = {
-      {"--steps", 1, 10000000, &o.steps},
-      {"--batch", 1, 256, &o.batch},
-      {"--checkpoint-every", 1, 10000000, &o.checkpoint_every},
-      {"--width", 16, 4096, &o.network.width},
-      {"--height", 16, 4096, &o.network.height},
-      {"--base-channels", 1, 256, &o.network.base_channels},
-      {"--levels", 2, 6, &o.network.levels},
-      {"--max-scenes", 1, 10000000, &max_scenes},
-      {"--threads", 1, 256, &threads},
-  };
-  for (const IntFlag& f : int_flags) {
-    if (!args.Take(f.name, &value)) continue;
-    if (!ParseInt(value, f.lo, f.hi, &n)) {
-      return Fail(std::string(f.name) + " must be an integer in " + std::to_string(f.lo) + ".." +
-                  std::to_string(f.hi));
-    }
-    *f.target = static_cast<int>(n);
-  }
-  if (args.Take("--seed", &value)) {
-    if (!ParseInt(value, 0, (1ll << 62), &n)) return Fail("--seed must be an integer >= 0");
-    o.seed = static_cast<std::uint64_t>(n);
-  }
-  struct DoubleFlag {
-    const char* name;
-    double* target;
-  };
-  const DoubleFlag double_flags[] = {{"--lr", &o.learning_rate},
-                                     {"--centre-weight", &o.centre_weight},
-                                     {"--offset-weight", &o.offset_weight},
-                                     {"--ssim-weight", &o.ssim_weight}};
-  for (const DoubleFlag& f : double_flags) {
-    if (args.Take(f.name, &value) && (!ParseDouble(value, f.target) || !(*f.target >= 0))) {
-      return Fail(std::string(f.name) + " must be a number >= 0");
-    }
-  }
+  args.Int("--steps", 1, 10000000, &o.steps);
+  args.Int("--batch", 1, 256, &o.batch);
+  args.Int("--checkpoint-every", 1, 10000000, &o.checkpoint_every);
+  args.Int("--width", 16, 4096, &o.network.width);
+  args.Int("--height", 16, 4096, &o.network.height);
+  args.Int("--base-channels", 1, 256, &o.network.base_channels);
+  args.Int("--levels", 2, 6, &o.network.levels);
+  args.Int("--max-scenes", 1, 10000000, &max_scenes);
+  args.Int("--threads", 1, 256, &threads);
+  args.Int("--seed", 0, cli::kNoLimit, &o.seed);
+  args.Number("--lr", cli::Bounds::Above(0), &o.learning_rate);
+  args.Number("--centre-weight", cli::Bounds::AtLeast(0), &o.centre_weight);
+  args.Number("--offset-weight", cli::Bounds::AtLeast(0), &o.offset_weight);
+  args.Number("--ssim-weight", cli::Bounds::AtLeast(0), &o.ssim_weight);
   o.resume = args.Flag("--resume");
-  if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front());
+  if (const auto error = args.Finish()) return Fail(error->message);
   const int div = 1 << o.network.levels;
   if (o.network.width % div != 0 || o.network.height % div != 0) {
     return Fail("--width and --height must be multiples of 2^levels = " + std::to_string(div));

@@ -11,6 +11,7 @@
 #include <optional>
 #include <sstream>
 
+#include "service/cli/args.h"
 #include "service/core/metrics.h"
 #include "service/core/preprocess.h"
 #include "service/models/dataset.h"
@@ -19,7 +20,6 @@
 #include "service/segmentation/instance_metrics.h"
 #include "service/segmentation/pcl_segmenter.h"
 #include "sim/progress.h"
-#include "tools/train/args.h"
 #include "tools/train/segmentation_cli.h"
 
 namespace softgrasp::tools {
@@ -126,48 +126,24 @@ json SetJson(const SetResult& r, bool with_model) {
 }  // namespace
 
 int RunSegmentationEvaluate(std::vector<std::string> argv) {
-  Args args{std::move(argv)};
-  std::string model_path, data, value;
-  long long n = 0;
+  cli::Args args(std::move(argv));
+  std::string model_path, data;
   int max_scenes = 0, threads = 2;
   double baseline_deformability = 0.503;
-  if (!args.Take("--model", &model_path)) return Fail("--model MODEL|none is required");
-  if (!args.Take("--data", &data)) return Fail("--data DIR[,DIR...] is required");
-  if (args.Take("--scenes", &value)) {
-    if (!ParseInt(value, 1, 10000000, &n)) return Fail("--scenes must be >= 1");
-    max_scenes = static_cast<int>(n);
-  }
-  if (args.Take("--threads", &value)) {
-    if (!ParseInt(value, 1, 256, &n)) return Fail("--threads must be in 1..256");
-    threads = static_cast<int>(n);
-  }
-  if (args.Take("--baseline-deformability", &value) &&
-      (!ParseDouble(value, &baseline_deformability) || baseline_deformability < 0 ||
-       baseline_deformability > 1)) {
-    return Fail("--baseline-deformability must be in [0, 1]");
-  }
   models::GroupingParams grouping;
-  struct FloatFlag {
-    const char* name;
-    float* target;
-  };
-  for (const FloatFlag& f : {FloatFlag{"--foreground-threshold", &grouping.foreground_threshold},
-                             FloatFlag{"--centre-threshold", &grouping.centre_threshold}}) {
-    double x = 0;
-    if (args.Take(f.name, &value)) {
-      if (!ParseDouble(value, &x) || x < 0 || x > 1) return Fail(std::string(f.name) + " must be in [0, 1]");
-      *f.target = static_cast<float>(x);
-    }
+  args.Required("--model", "MODEL|none", &model_path);
+  args.Required("--data", "DIR[,DIR...]", &data);
+  args.Int("--scenes", 1, 10000000, &max_scenes);
+  args.Int("--threads", 1, 256, &threads);
+  args.Number("--baseline-deformability", cli::Bounds::Closed(0, 1), &baseline_deformability);
+  args.Number("--foreground-threshold", cli::Bounds::Closed(0, 1), &grouping.foreground_threshold);
+  args.Number("--centre-threshold", cli::Bounds::Closed(0, 1), &grouping.centre_threshold);
+  if (args.Int("--peak-window", 1, 99, &grouping.peak_window_px) &&
+      grouping.peak_window_px % 2 == 0) {
+    args.Fail("--peak-window must be odd, 1..99", "--peak-window");
   }
-  if (args.Take("--peak-window", &value)) {
-    if (!ParseInt(value, 1, 99, &n) || n % 2 == 0) return Fail("--peak-window must be odd, 1..99");
-    grouping.peak_window_px = static_cast<int>(n);
-  }
-  if (args.Take("--min-area", &value)) {
-    if (!ParseInt(value, 0, 1000000, &n)) return Fail("--min-area must be in 0..1000000");
-    grouping.min_area_px = static_cast<int>(n);
-  }
-  if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front());
+  args.Int("--min-area", 0, 1000000, &grouping.min_area_px);
+  if (const auto error = args.Finish()) return Fail(error->message);
   models::SetTorchThreads(threads);
   std::optional<models::SegmentationModel> model;
   if (model_path != "none") {

@@ -15,11 +15,11 @@
 #include <string>
 #include <vector>
 
+#include "service/cli/args.h"
 #include "service/models/dataset.h"
 #include "service/models/stiffness_model.h"
 #include "service/models/trainer.h"
 #include "sim/progress.h"
-#include "tools/train/args.h"
 #include "tools/train/evaluate.h"
 #include "tools/train/evaluate_tasks.h"
 #include "tools/train/segmentation_cli.h"
@@ -28,9 +28,7 @@ namespace {
 
 using softgrasp::core::Error;
 namespace models = softgrasp::models;
-using softgrasp::tools::Args;
-using softgrasp::tools::ParseDouble;
-using softgrasp::tools::ParseInt;
+namespace cli = softgrasp::cli;
 
 constexpr const char* kUsage =
     "usage: softgrasp-train stiffness --data DIR --out MODEL [--steps N] [--seed S] [--batch B]\n"
@@ -65,64 +63,29 @@ int FailError(const Error& e) {
   return Fail(e.message + (e.field.empty() ? "" : " [" + e.field + "]"));
 }
 
-int RunStiffness(Args args) {
+int RunStiffness(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
   models::TrainOptions o;
-  std::string data, out, value;
-  long long n = 0;
+  std::string data, out;
   int threads = 2;
   int max_scenes = 0;
-  if (!args.Take("--data", &data)) return Fail("--data DIR is required\n" + std::string(kUsage));
-  if (!args.Take("--out", &out)) return Fail("--out MODEL is required\n" + std::string(kUsage));
+  args.Required("--data", "DIR", &data);
+  args.Required("--out", "MODEL", &out);
   o.out = out;
-  if (args.Take("--steps", &value)) {
-    if (!ParseInt(value, 1, 10000000, &n)) return Fail("--steps must be an integer >= 1");
-    o.steps = static_cast<int>(n);
-  }
-  if (args.Take("--seed", &value)) {
-    if (!ParseInt(value, 0, (1ll << 62), &n)) return Fail("--seed must be an integer >= 0");
-    o.seed = static_cast<std::uint64_t>(n);
-  }
-  if (args.Take("--batch", &value)) {
-    if (!ParseInt(value, 1, 256, &n)) return Fail("--batch must be in 1..256");
-    o.batch = static_cast<int>(n);
-  }
-  if (args.Take("--checkpoint-every", &value)) {
-    if (!ParseInt(value, 1, 10000000, &n)) return Fail("--checkpoint-every must be >= 1");
-    o.checkpoint_every = static_cast<int>(n);
-  }
-  if (args.Take("--base-channels", &value)) {
-    if (!ParseInt(value, 1, 256, &n)) return Fail("--base-channels must be in 1..256");
-    o.network.base_channels = static_cast<int>(n);
-  }
-  if (args.Take("--disc-channels", &value)) {
-    if (!ParseInt(value, 1, 256, &n)) return Fail("--disc-channels must be in 1..256");
-    o.network.disc_channels = static_cast<int>(n);
-  }
-  if (args.Take("--levels", &value)) {
-    if (!ParseInt(value, 2, 7, &n)) return Fail("--levels must be in 2..7");
-    o.network.levels = static_cast<int>(n);
-  }
-  if (args.Take("--max-scenes", &value)) {
-    if (!ParseInt(value, 1, 10000000, &n)) return Fail("--max-scenes must be >= 1");
-    max_scenes = static_cast<int>(n);
-  }
-  if (args.Take("--threads", &value)) {
-    if (!ParseInt(value, 1, 256, &n)) return Fail("--threads must be in 1..256");
-    threads = static_cast<int>(n);
-  }
-  if (args.Take("--lambda", &value) && (!ParseDouble(value, &o.lambda_l1) || o.lambda_l1 < 0)) {
-    return Fail("--lambda must be a number >= 0");
-  }
-  if (args.Take("--object-weight", &value) &&
-      (!ParseDouble(value, &o.object_weight) || o.object_weight < 0 || o.object_weight > 1000)) {
-    return Fail("--object-weight must be a number in [0, 1000]");
-  }
-  if (args.Take("--lr", &value) &&
-      (!ParseDouble(value, &o.learning_rate) || o.learning_rate <= 0)) {
-    return Fail("--lr must be a number > 0");
-  }
+  args.Int("--steps", 1, 10000000, &o.steps);
+  args.Int("--seed", 0, cli::kNoLimit, &o.seed);
+  args.Int("--batch", 1, 256, &o.batch);
+  args.Int("--checkpoint-every", 1, 10000000, &o.checkpoint_every);
+  args.Int("--base-channels", 1, 256, &o.network.base_channels);
+  args.Int("--disc-channels", 1, 256, &o.network.disc_channels);
+  args.Int("--levels", 2, 7, &o.network.levels);
+  args.Int("--max-scenes", 1, 10000000, &max_scenes);
+  args.Int("--threads", 1, 256, &threads);
+  args.Number("--lambda", cli::Bounds::AtLeast(0), &o.lambda_l1);
+  args.Number("--object-weight", cli::Bounds::Closed(0, 1000), &o.object_weight);
+  args.Number("--lr", cli::Bounds::Above(0), &o.learning_rate);
   o.resume = args.Flag("--resume");
-  if (!args.rest.empty()) return Fail("unknown argument " + args.rest.front() + "\n" + kUsage);
+  if (const auto error = args.Finish()) return Fail(error->message + "\n" + kUsage);
 
   models::SetTorchThreads(threads);
   auto dataset = models::SceneDataset::Open(data);
@@ -171,14 +134,13 @@ int RunStiffness(Args args) {
 int main(int argc, char** argv) {
   if (argc < 2) return Fail(std::string("missing command\n") + kUsage);
   const std::string command = argv[1];
-  Args args;
-  for (int i = 2; i < argc; ++i) args.rest.emplace_back(argv[i]);
+  std::vector<std::string> args(argv + 2, argv + argc);
   if (command == "stiffness") return RunStiffness(std::move(args));
-  if (command == "evaluate") return softgrasp::tools::RunEvaluate(args.rest);
-  if (command == "evaluate-tasks") return softgrasp::tools::RunEvaluateTasks(args.rest);
-  if (command == "segmentation") return softgrasp::tools::RunSegmentationTrain(args.rest);
+  if (command == "evaluate") return softgrasp::tools::RunEvaluate(std::move(args));
+  if (command == "evaluate-tasks") return softgrasp::tools::RunEvaluateTasks(std::move(args));
+  if (command == "segmentation") return softgrasp::tools::RunSegmentationTrain(std::move(args));
   if (command == "evaluate-segmentation") {
-    return softgrasp::tools::RunSegmentationEvaluate(args.rest);
+    return softgrasp::tools::RunSegmentationEvaluate(std::move(args));
   }
   if (command == "--help" || command == "-h") {
     std::cout << kUsage << softgrasp::tools::kSegmentationUsage;

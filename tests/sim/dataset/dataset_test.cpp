@@ -317,7 +317,9 @@ TEST(SimCli, GenerateIsDeterministicAndRejectsBadArguments) {
   EXPECT_EQ(manifest["support"]["kind"], "table");
   for (const char* bad :
        {" generate --seed 1 --out /tmp/x", " generate --scenes 1 --objects 0-3 --out /tmp/x",
-        " generate --scenes 1 --split test --out /tmp/x", " generate --scenes 1"}) {
+        " generate --scenes 1 --split test --out /tmp/x", " generate --scenes 1",
+        " generate --scenes 1 --scenes 2 --out /tmp/x",
+        " generate --scenes 1 --out /tmp/x --what 1", " generate --scenes 1 --out"}) {
     const int status = std::system((exe + bad + " > /dev/null 2>&1").c_str());
     EXPECT_EQ(WEXITSTATUS(status), 2) << bad;
   }

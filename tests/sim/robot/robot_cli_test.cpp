@@ -32,6 +32,28 @@ TEST(RobotCli, SceneFlagRebuildsTheSpecAndSeedOfAManifest) {
   EXPECT_EQ(cli.spec.max_objects, 3);
   EXPECT_EQ(SceneSpecToJson(cli.spec), SceneSpecToJson(params.spec));
   EXPECT_EQ(cli.robot_id, "r2");
+
+  // The other options change the manifest's scene wherever they stand.
+  RobotCommandLine changed;
+  ASSERT_EQ(ParseRobotArgs({"--support", "bin", "--scene", manifest.string(), "--objects", "4"},
+                           &changed),
+            "");
+  EXPECT_EQ(changed.scene_seed, cli.scene_seed);
+  EXPECT_EQ(changed.spec.support.kind, Support::Kind::kBin);
+  EXPECT_EQ(changed.spec.min_objects, 4);
+  EXPECT_EQ(changed.spec.max_objects, 4);
+}
+
+TEST(RobotCli, BadOptionsSayWhatTheyTake) {
+  RobotCommandLine cli;
+  EXPECT_EQ(ParseRobotArgs({"--domain", "300"}, &cli), "--domain must be an integer in 0..232");
+  EXPECT_EQ(ParseRobotArgs({"--support", "floor"}, &cli), "--support must be one of bin, table");
+  EXPECT_EQ(ParseRobotArgs({"--robot-id", ""}, &cli), "--robot-id must be 1-256 bytes");
+  EXPECT_EQ(ParseRobotArgs({"--objects", "0-3"}, &cli),
+            "--objects must be N or MIN-MAX within 1-40");
+  EXPECT_EQ(ParseRobotArgs({"--http-port", "8081", "extra"}, &cli), "unknown argument extra");
+  EXPECT_EQ(ParseRobotArgs({"--http-port", "1", "--http-port", "2"}, &cli),
+            "--http-port given twice");
 }
 
 TEST(RobotCli, BadSceneFilesAreClearErrors) {
