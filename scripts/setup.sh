@@ -5,7 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   # toolchain
-  build-essential cmake ninja-build ccache pkg-config git curl ca-certificates clang libclang-rt-14-dev
+  build-essential cmake ninja-build ccache pkg-config git curl ca-certificates clang clang-format libclang-rt-14-dev
   # libraries of the service, the simulator and the models
   libopencv-dev libeigen3-dev nlohmann-json3-dev libtiff-dev libpng-dev zlib1g-dev libyaml-cpp-dev
   cyclonedds-dev cyclonedds-tools libembree-dev libpcl-dev libbullet-dev libtorch-dev libcgal-dev

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds, and runs the whole test suite (unit, integration, contract,
-# fuzz-corpus replay, the page in headless chromium), then an ASan+UBSan build of the HTTP and
+# Installs what is missing, checks the C++ formatting (clang-format), builds, and runs the whole
+# test suite (unit, integration, contract, fuzz-corpus replay, the page in headless chromium), then an ASan+UBSan build of the HTTP and
 # codec tests and a ThreadSanitizer build of the server and robot-command tests.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$root/scripts/setup.sh"
+bash "$root/scripts/check-format.sh"
 bash "$root/scripts/build.sh"
 ctest --test-dir "${SOFTGRASP_BUILD_DIR:-$root/build}" -j "$(nproc)" --output-on-failure
 

@@ -10,12 +10,12 @@
 #include <vector>
 
 #include "service/bridge/bridge.h"
+#include "service/config/config.h"
 #include "service/core/preprocess.h"
 #include "service/http/server.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 #include "service/rest/api.h"
-#include "service/config/config.h"
 #include "service/robot/command_tracker.h"
 
 namespace {
@@ -126,7 +126,8 @@ int main(int argc, char** argv) {
   using namespace softgrasp;
   auto command_line = config::ParseCommandLine(std::vector<std::string>(argv + 1, argv + argc));
   if (!command_line.ok()) {
-    std::cerr << "softgrasp-server: " << command_line.error().message << "\n" << config::UsageText();
+    std::cerr << "softgrasp-server: " << command_line.error().message << "\n"
+              << config::UsageText();
     return 2;
   }
   if (command_line.value().help) {

@@ -31,7 +31,8 @@ json Entry(const std::string& file, std::uint64_t seed, const mesh::FractalModel
 
 core::Result<std::filesystem::path> GenerateFractalBatch(
     const FractalBatchParams& params, const std::function<void(int done)>& progress) {
-  if (params.count < 1) return MakeError(ErrorCode::kInvalidArgument, "--count must be >= 1", "count");
+  if (params.count < 1)
+    return MakeError(ErrorCode::kInvalidArgument, "--count must be >= 1", "count");
   if (auto invalid = mesh::ValidateFractalParams(params.model)) return *invalid;
   std::error_code ec;
   std::filesystem::create_directories(params.out_dir, ec);
@@ -45,7 +46,8 @@ core::Result<std::filesystem::path> GenerateFractalBatch(
     p.seed = params.seed + static_cast<std::uint64_t>(i);
     auto model = mesh::GenerateFractal(p);
     if (!model.ok()) return model.error();
-    const std::string file = "fractal_" + std::to_string(p.seed) + "." + mesh::MeshFileExtension(params.format);
+    const std::string file =
+        "fractal_" + std::to_string(p.seed) + "." + mesh::MeshFileExtension(params.format);
     if (auto error = cli::WriteFile(params.out_dir / file,
                                     mesh::WriteMesh(model.value().mesh, params.format))) {
       return MakeError(ErrorCode::kInvalidArgument, error->message, "out");

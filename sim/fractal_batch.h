@@ -14,8 +14,8 @@ namespace softgrasp::sim {
 
 struct FractalBatchParams {
   int count = 10;
-  std::uint64_t seed = 0;            ///< model i uses seed + i
-  mesh::FractalParams model;         ///< everything but the seed
+  std::uint64_t seed = 0;     ///< model i uses seed + i
+  mesh::FractalParams model;  ///< everything but the seed
   mesh::MeshFormat format = mesh::MeshFormat::kObj;
   std::filesystem::path out_dir;
 };

@@ -21,8 +21,10 @@ void ProgressBar::Update(int done) {
   last_percent_ = percent;
   constexpr int kWidth = 40;
   const int filled = percent * kWidth / 100;
-  std::fprintf(stderr, "\r%s [%s%s] %3d%% %d/%d", label_.c_str(), std::string(static_cast<std::size_t>(filled), '#').c_str(),
-               std::string(static_cast<std::size_t>(kWidth - filled), '.').c_str(), percent, done, total_);
+  std::fprintf(stderr, "\r%s [%s%s] %3d%% %d/%d", label_.c_str(),
+               std::string(static_cast<std::size_t>(filled), '#').c_str(),
+               std::string(static_cast<std::size_t>(kWidth - filled), '.').c_str(), percent, done,
+               total_);
   std::fflush(stderr);
 }
 

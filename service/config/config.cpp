@@ -10,7 +10,6 @@
 #include <sstream>
 #include <type_traits>
 
-
 namespace softgrasp::config {
 namespace {
 
@@ -109,37 +108,36 @@ Access Tokens(std::vector<std::string>* target) {
 
 Access WorkspaceBox(bridge::Workspace* target) {
   return {[=](const json& v) -> std::string {
-    if (!v.is_object()) return "must be an object {frame_id, min_m, max_m}";
-    bridge::Workspace w = *target;
-    for (const auto& [key, value] : v.items()) {
-      if (key == "frame_id") {
-        if (!value.is_string() || value.get<std::string>().empty()) {
-          return ".frame_id must be a non-empty string";
-        }
-        w.frame_id = value.get<std::string>();
-      } else if (key == "min_m" || key == "max_m") {
-        if (!value.is_array() || value.size() != 3) return "." + key + " must be 3 numbers";
-        auto& corner = key == "min_m" ? w.min_m : w.max_m;
-        for (std::size_t i = 0; i < 3; ++i) {
-          if (!value[i].is_number() || !std::isfinite(value[i].get<double>())) {
-            return "." + key + " must be 3 finite numbers";
-          }
-          corner[i] = value[i].get<double>();
-        }
-      } else {
-        return "has an unknown key '" + key + "'";
-      }
-    }
-    for (std::size_t i = 0; i < 3; ++i) {
-      if (!(w.min_m[i] < w.max_m[i])) return "min_m must be below max_m on every axis";
-    }
-    *target = w;
-    return {};
+            if (!v.is_object()) return "must be an object {frame_id, min_m, max_m}";
+            bridge::Workspace w = *target;
+            for (const auto& [key, value] : v.items()) {
+              if (key == "frame_id") {
+                if (!value.is_string() || value.get<std::string>().empty()) {
+                  return ".frame_id must be a non-empty string";
+                }
+                w.frame_id = value.get<std::string>();
+              } else if (key == "min_m" || key == "max_m") {
+                if (!value.is_array() || value.size() != 3) return "." + key + " must be 3 numbers";
+                auto& corner = key == "min_m" ? w.min_m : w.max_m;
+                for (std::size_t i = 0; i < 3; ++i) {
+                  if (!value[i].is_number() || !std::isfinite(value[i].get<double>())) {
+                    return "." + key + " must be 3 finite numbers";
+                  }
+                  corner[i] = value[i].get<double>();
+                }
+              } else {
+                return "has an unknown key '" + key + "'";
+              }
+            }
+            for (std::size_t i = 0; i < 3; ++i) {
+              if (!(w.min_m[i] < w.max_m[i])) return "min_m must be below max_m on every axis";
+            }
+            *target = w;
+            return {};
           },
           [=] {
-            return json{{"frame_id", target->frame_id},
-                        {"min_m", target->min_m},
-                        {"max_m", target->max_m}};
+            return json{
+                {"frame_id", target->frame_id}, {"min_m", target->min_m}, {"max_m", target->max_m}};
           }};
 }
 
@@ -212,7 +210,8 @@ std::vector<Entry> Table(ServiceConfig& c) {
       num("camera", "height", nullptr, nullptr, 1, 1e6, "default image height, pixels",
           Number(&cam.height, 1, 1e6)),
       num("gripper", "opening_stroke_mm", nullptr, nullptr, 1, 1000,
-          "widest distance between the inner finger faces", Millimetres(&g.opening_stroke_m, 1, 1000)),
+          "widest distance between the inner finger faces",
+          Millimetres(&g.opening_stroke_m, 1, 1000)),
       num("gripper", "finger_width_mm", nullptr, nullptr, 0.5, 500,
           "finger size across the closing axis", Millimetres(&g.finger_width_m, 0.5, 500)),
       num("gripper", "finger_thickness_mm", nullptr, nullptr, 0.5, 500,
@@ -227,8 +226,8 @@ std::vector<Entry> Table(ServiceConfig& c) {
           "slices searched in one batch from the top", Number(&f.num_height_steps, 1, max_steps)),
       num("fge", "grip_depth_m", nullptr, nullptr, 0.0, 0.5,
           "how far below the contact the fingertips go", Number(&f.grip_depth_m, 0.0, 0.5)),
-      num("fge", "min_object_area_px", nullptr, nullptr, 1, 1e8,
-          "smallest contact region kept", Number(&f.min_object_area_px, 1, 1e8)),
+      num("fge", "min_object_area_px", nullptr, nullptr, 1, 1e8, "smallest contact region kept",
+          Number(&f.min_object_area_px, 1, 1e8)),
       num("fge", "floor_clearance_m", nullptr, nullptr, 0.0, 0.5,
           "fingertips stay this far above the floor", Number(&f.floor_clearance_m, 0.0, 0.5)),
       num("fge", "seam_step_m", nullptr, nullptr, 0.001, 1.0,
@@ -474,7 +473,8 @@ std::string UsageText() {
   }
   os << "  Environment:\n";
   for (const Setting& s : Settings()) {
-    if (s.env != nullptr) os << "    " << s.env << "  " << s.section << "." << s.key << ": " << s.help << "\n";
+    if (s.env != nullptr)
+      os << "    " << s.env << "  " << s.section << "." << s.key << ": " << s.help << "\n";
   }
   os << "  Precedence: flags > environment > config file > defaults (docs/configuration.md).\n";
   return os.str();

@@ -50,7 +50,7 @@ struct ServiceConfig {
   /// grasped, only avoided (e.g. the gripper's own fingers in a wrist camera). 0 = no limit;
   /// requests may override it with the field min_depth_m.
   double min_depth_m = 0.0;
-  int max_fractal_points = 200'000;            ///< POST /v1/fractals "points" cap (400 above it)
+  int max_fractal_points = 200'000;   ///< POST /v1/fractals "points" cap (400 above it)
   int max_fractal_attempts = 20'000;  ///< IFS draws before a fractal request gives up (422)
   /// Folder of the built web page served at GET / and /assets/ (scripts/build.sh writes it to
   /// <build>/web). Empty: softgrasp-server uses DefaultWebRoot() next to its executable.
@@ -79,8 +79,8 @@ std::string DefaultJournalDir();
 struct Setting {
   const char* section;
   const char* key;
-  const char* env;   ///< SOFTGRASP_..., or null
-  const char* flag;  ///< --..., or null
+  const char* env;          ///< SOFTGRASP_..., or null
+  const char* flag;         ///< --..., or null
   double min = 0, max = 0;  ///< numbers only
   const char* help;
 };

@@ -29,14 +29,14 @@ struct FgeParams {
 /// The per-angle maps FGE computes, exposed so the fast and the reference implementation can be
 /// compared map for map. All maps have the image size.
 struct FgeMaps {
-  cv::Mat1f contact;    ///< A_t: surface pixels inside the closing region
-  cv::Mat1f collision;  ///< A_c: surface pixels under the two finger footprints
+  cv::Mat1f contact;       ///< A_t: surface pixels inside the closing region
+  cv::Mat1f collision;     ///< A_c: surface pixels under the two finger footprints
   cv::Mat1f graspability;  ///< Gaussian-blurred candidate map (A_t > 0 and A_c = 0), [0, 1]
 };
 
 /// Ranked grasps, best first; empty when nothing is graspable.
-std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera,
-                                   const Gripper& gripper, const FgeParams& params = {});
+std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, const Gripper& gripper,
+                                   const FgeParams& params = {});
 
 /// Maps for one angle and one contact height, fast implementation (box sums over rotated
 /// images). `contact_height_m` is the slice height above the floor.
@@ -46,7 +46,6 @@ FgeMaps ComputeFgeMaps(const Scene& scene, const Camera& camera, const Gripper& 
 /// The same maps by straightforward cv::filter2D with rotated templates. Slow; kept as the
 /// reference for tests and as the benchmark baseline.
 FgeMaps ComputeFgeMapsReference(const Scene& scene, const Camera& camera, const Gripper& gripper,
-                                const FgeParams& params, double angle_rad,
-                                double contact_height_m);
+                                const FgeParams& params, double angle_rad, double contact_height_m);
 
 }  // namespace softgrasp::core

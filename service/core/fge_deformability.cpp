@@ -34,8 +34,7 @@ void CheckParams(const DeformabilityParams& p, const Gripper& gripper) {
   for (double f : p.opening_fractions) {
     Require(f > 0 && f <= 1, "opening_fractions must be in (0, 1]");
   }
-  Require(p.min_graspability >= 0 && p.min_graspability <= 1,
-          "min_graspability must be in [0, 1]");
+  Require(p.min_graspability >= 0 && p.min_graspability <= 1, "min_graspability must be in [0, 1]");
   Require(std::is_sorted(p.opening_fractions.begin(), p.opening_fractions.end()),
           "opening_fractions must be in increasing order");
   Require(p.stiff_part_fraction >= 0 && p.stiff_part_fraction <= 1,
@@ -99,7 +98,6 @@ double Quantile(std::vector<float> values, double q) {
   return values[k];
 }
 
-
 /// The target's mask grown into the unlabelled foreground connected to it.
 cv::Mat1b GrownTarget(const ObjectMaps& objects, int target_id) {
   const cv::Mat1b target = objects.labels == target_id;
@@ -130,11 +128,13 @@ Scene SceneForTarget(const Scene& scene, const ObjectMaps& objects, int target_i
   Scene out = scene;
   out.contact_allowed =
       StiffPart(scene, GrownTarget(objects, target_id), stiffness, params.stiff_part_fraction);
-  const cv::Mat1b soft = (objects.labels != 0) & (objects.labels != target_id) &
-                         (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
+  const cv::Mat1b soft =
+      (objects.labels != 0) & (objects.labels != target_id) &
+      (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
   if (params.max_press_depth_m > 0 && cv::countNonZero(soft) > 0) {
     out.height_m = scene.height_m.clone();
-    cv::Mat1f pressed = cv::max(scene.height_m - static_cast<float>(params.max_press_depth_m), 0.0f);
+    cv::Mat1f pressed =
+        cv::max(scene.height_m - static_cast<float>(params.max_press_depth_m), 0.0f);
     pressed.copyTo(out.height_m, soft);
   }
   return out;
@@ -224,9 +224,9 @@ std::vector<TargetStats> RankTargets(const Scene& scene, const ObjectMaps& objec
     double least = 1;
     for (const auto& s : stats) least = std::min(least, s.mean_deformability);
     const auto band = [&](const TargetStats& s) {
-      return params.tie_tolerance > 0
-                 ? static_cast<int>(std::floor((s.mean_deformability - least) / params.tie_tolerance))
-                 : (s.mean_deformability > least ? 1 : 0);
+      return params.tie_tolerance > 0 ? static_cast<int>(std::floor((s.mean_deformability - least) /
+                                                                    params.tie_tolerance))
+                                      : (s.mean_deformability > least ? 1 : 0);
     };
     std::sort(stats.begin(), stats.end(), [&](const TargetStats& a, const TargetStats& b) {
       const int ba = band(a), bb = band(b);
@@ -279,8 +279,7 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   for (const TargetStats& candidate : order) {
     if (static_cast<int>(result.tried_ids.size()) >= params.max_targets) break;
     if (result.target_id > 0 &&
-        (!compare ||
-         candidate.mean_deformability >= best_deformability - params.tie_tolerance)) {
+        (!compare || candidate.mean_deformability >= best_deformability - params.tie_tolerance)) {
       break;
     }
     const int id = candidate.id;
@@ -321,8 +320,10 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
     for (const Grasp& g : DetectGraspsStiffness(scene, camera, stiffness, gripper, whole)) {
       DeformabilityGrasp dg;
       dg.grasp = g;
-      const int u = std::clamp(static_cast<int>(std::lround(g.center_u_px)), 0, scene.height_m.cols - 1);
-      const int v = std::clamp(static_cast<int>(std::lround(g.center_v_px)), 0, scene.height_m.rows - 1);
+      const int u =
+          std::clamp(static_cast<int>(std::lround(g.center_u_px)), 0, scene.height_m.cols - 1);
+      const int v =
+          std::clamp(static_cast<int>(std::lround(g.center_v_px)), 0, scene.height_m.rows - 1);
       dg.instance_id = objects.labels(v, u);
       dg.mean_deformability = 1.0 - g.mean_stiffness;
       result.grasps.push_back(std::move(dg));

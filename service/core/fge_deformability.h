@@ -44,7 +44,7 @@ struct DeformabilityParams {
   int num_slices = 5;               ///< M: slices searched from the first one down
   double min_score = 0.27;          ///< R: instances scoring below are never targets
   TargetPolicy policy = TargetPolicy::kHighest;
-  int target_id = 0;                ///< > 0: this instance, whatever its score (wins over policy)
+  int target_id = 0;  ///< > 0: this instance, whatever its score (wins over policy)
   /// Pre-grasp openings tried, as fractions of the stroke, in increasing order; the smallest
   /// that gives a grasp is kept.
   std::vector<double> opening_fractions{0.5, 0.75, 1.0};
@@ -77,7 +77,7 @@ struct DeformabilityParams {
 
 /// A grasp on the target with what the strategy knows about it.
 struct DeformabilityGrasp {
-  Grasp grasp;  ///< mean_stiffness = 1 - mean_deformability
+  Grasp grasp;          ///< mean_stiffness = 1 - mean_deformability
   int instance_id = 0;  ///< the target (fallback: the instance under the centre, 0 = none)
   double mean_deformability = 0;  ///< over the contact surface in the closing region
   double opening_fraction = 1;    ///< of the stroke (grasp.opening_m is the opening itself)
@@ -86,7 +86,7 @@ struct DeformabilityGrasp {
 };
 
 struct DeformabilityResult {
-  int target_id = 0;          ///< whose grasps these are; 0 when no target gave a grasp
+  int target_id = 0;           ///< whose grasps these are; 0 when no target gave a grasp
   std::vector<int> tried_ids;  ///< targets planned, in order
   bool fallback = false;       ///< the grasps come from the whole-scene fallback
   std::vector<DeformabilityGrasp> grasps;  ///< best first, all on target_id

@@ -8,9 +8,8 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <utility>
-
 #include <opencv2/imgproc.hpp>
+#include <utility>
 
 namespace softgrasp::core::fge_detail {
 namespace {
@@ -25,7 +24,7 @@ constexpr std::uint16_t kSeamMask = 0xff00;
 constexpr int kSeamShift = 8;
 constexpr std::uint16_t kOutsideLevel = 0x7f;  // outside the image: above every level, no contact
 constexpr int kMaxLevels = kOutsideLevel - 1;
-constexpr float kLevelMergeM = 1e-7f;         // levels closer than this are one level
+constexpr float kLevelMergeM = 1e-7f;  // levels closer than this are one level
 // The graspability blur runs on cells of d x d work pixels, d in {1, 2, 4} as large as keeps
 // sigma >= kMinBlurSigmaCells cells.
 constexpr double kMinBlurSigmaCells = 2.5;
@@ -140,8 +139,9 @@ cv::Mat1b CropWithBorder(const cv::Mat1b& image, const cv::Rect& rect, std::uint
 // How far the box sums of a candidate reach from the I_t pixel that makes it possible: the
 // candidate lies within (A, B) of it and its sums read up to (F + 1, B + 1) further.
 int ReachPx(const TemplateBoxes& b) {
-  return static_cast<int>(std::ceil(std::hypot(b.contact_half_len + b.finger_outer + 1,
-                                               2 * b.half_width + 1))) + 1;
+  return static_cast<int>(
+             std::ceil(std::hypot(b.contact_half_len + b.finger_outer + 1, 2 * b.half_width + 1))) +
+         1;
 }
 
 // The top-left `size` of `buffer`, which grows when too small (buffers are reused, so large
@@ -178,7 +178,8 @@ cv::Mat1w PackLevels(const cv::Mat1b& height_levels, const cv::Mat1b& seam_level
     const std::uint8_t* h = height_levels.ptr<std::uint8_t>(y);
     const std::uint8_t* s = seam_levels.ptr<std::uint8_t>(y);
     std::uint16_t* o = out.ptr<std::uint16_t>(y);
-    for (int x = 0; x < out.cols; ++x) o[x] = static_cast<std::uint16_t>(h[x] | (s[x] << kSeamShift));
+    for (int x = 0; x < out.cols; ++x)
+      o[x] = static_cast<std::uint16_t>(h[x] | (s[x] << kSeamShift));
   }
   return out;
 }
@@ -192,15 +193,15 @@ struct FastFge::Workspace {
   cv::Mat1f candidate, small, blurred, grasp;
   std::vector<int> strip_contact, strip_tip, strip_palm, strip_seam;
   std::vector<int> row_contact, row_collision;
-  cv::Mat2f region_map;    // Candidates: a pooled map rotated onto the canvas
-  cv::Mat2d region_sums;   // Candidates: its integral image around a cluster's candidates
+  cv::Mat2f region_map;   // Candidates: a pooled map rotated onto the canvas
+  cv::Mat2d region_sums;  // Candidates: its integral image around a cluster's candidates
 };
 
 struct FastFge::Canvas {
   cv::Mat1w levels;  // view into the workspace: level words
   cv::Matx23d crop_from_canvas;
   cv::Matx23d canvas_from_crop;
-  cv::Rect safe;     // centres whose box sums stay inside the canvas
+  cv::Rect safe;                  // centres whose box sums stay inside the canvas
   std::vector<cv::Rect> objects;  // FastFge::objects_ boxes, rotated (canvas pixels)
 };
 
@@ -398,7 +399,8 @@ SliceRegions RegionsOfSlice(const FastFge::Canvas& canvas,
   for (std::size_t i = 0; i < objects.size(); ++i) {
     if (objects[i].max_contact_level <= w.contact_level) continue;
     const cv::Rect& r = canvas.objects[i];
-    const cv::Rect roi = cv::Rect(r.x - a, r.y - b, r.width + 2 * a, r.height + 2 * b) & canvas.safe;
+    const cv::Rect roi =
+        cv::Rect(r.x - a, r.y - b, r.width + 2 * a, r.height + 2 * b) & canvas.safe;
     if (!roi.empty()) rois.push_back(roi);
   }
   SliceRegions regions;
@@ -446,17 +448,17 @@ std::vector<cv::Rect> RotatedBoxes(const std::vector<FastFge::Object>& objects,
   for (const FastFge::Object& o : objects) {
     const cv::Rect& r = o.crop_box;
     double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-    for (const cv::Point2d corner : {cv::Point2d(r.x - 0.5, r.y - 0.5),
-                                     cv::Point2d(r.x + r.width - 0.5, r.y - 0.5),
-                                     cv::Point2d(r.x - 0.5, r.y + r.height - 0.5),
-                                     cv::Point2d(r.x + r.width - 0.5, r.y + r.height - 0.5)}) {
+    for (const cv::Point2d corner :
+         {cv::Point2d(r.x - 0.5, r.y - 0.5), cv::Point2d(r.x + r.width - 0.5, r.y - 0.5),
+          cv::Point2d(r.x - 0.5, r.y + r.height - 0.5),
+          cv::Point2d(r.x + r.width - 0.5, r.y + r.height - 0.5)}) {
       const double x = t(0, 0) * corner.x + t(0, 1) * corner.y + t(0, 2);
       const double y = t(1, 0) * corner.x + t(1, 1) * corner.y + t(1, 2);
       x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
     }
-    boxes.emplace_back(cv::Point(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0))),
-                       cv::Point(static_cast<int>(std::ceil(x1)) + 1,
-                                 static_cast<int>(std::ceil(y1)) + 1));
+    boxes.emplace_back(
+        cv::Point(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0))),
+        cv::Point(static_cast<int>(std::ceil(x1)) + 1, static_cast<int>(std::ceil(y1)) + 1));
   }
   return boxes;
 }
@@ -473,7 +475,8 @@ std::vector<FastFge::Object> FindObjects(const cv::Mat1w& levels, int level) {
   for (int y = 0; y < levels.rows; ++y) {
     const std::uint16_t* l = levels.ptr<std::uint16_t>(y);
     std::uint8_t* m = mask.ptr<std::uint8_t>(y);
-    for (int x = 0; x < levels.cols; ++x) m[x] = (l[x] & kLowByte) > kGraspableBit + level ? 255 : 0;
+    for (int x = 0; x < levels.cols; ++x)
+      m[x] = (l[x] & kLowByte) > kGraspableBit + level ? 255 : 0;
   }
   cv::Mat1i labels, stats;
   cv::Mat1d centroids;
@@ -481,8 +484,8 @@ std::vector<FastFge::Object> FindObjects(const cv::Mat1w& levels, int level) {
   std::vector<FastFge::Object> objects(static_cast<std::size_t>(std::max(0, n - 1)));
   for (int i = 1; i < n; ++i) {
     objects[static_cast<std::size_t>(i - 1)].crop_box =
-        cv::Rect(stats(i, cv::CC_STAT_LEFT), stats(i, cv::CC_STAT_TOP),
-                 stats(i, cv::CC_STAT_WIDTH), stats(i, cv::CC_STAT_HEIGHT));
+        cv::Rect(stats(i, cv::CC_STAT_LEFT), stats(i, cv::CC_STAT_TOP), stats(i, cv::CC_STAT_WIDTH),
+                 stats(i, cv::CC_STAT_HEIGHT));
   }
   for (int y = 0; y < levels.rows; ++y) {
     const std::uint16_t* l = levels.ptr<std::uint16_t>(y);
@@ -511,7 +514,8 @@ bool HasUngraspableSurface(const cv::Mat1w& levels) {
 
 FastFge::FastFge(const Scene& scene, const Camera& camera, const Gripper& gripper,
                  const FgeParams& params, std::vector<Slice> slices, const cv::Mat1b& graspable)
-    : image_size_(scene.height_m.size()), slices_(std::move(slices)),
+    : image_size_(scene.height_m.size()),
+      slices_(std::move(slices)),
       ws_(std::make_unique<Workspace>()) {
   if (slices_.empty() || scene.height_m.empty()) return;
   scale_ = WorkScale(scene.floor, camera, gripper);
@@ -546,7 +550,8 @@ FastFge::FastFge(const Scene& scene, const Camera& camera, const Gripper& grippe
   // The crop may reach past the image: there the gripper would be blind, so it is an obstacle.
   crop_ = cv::Rect(occupied.x - margin_px_, occupied.y - margin_px_,
                    occupied.width + 2 * margin_px_, occupied.height + 2 * margin_px_);
-  const cv::Mat1f seams = ConservativePool(SeamLevels(scene.height_m, scene.missing_mask, params.seam_step_m), scale_);
+  const cv::Mat1f seams =
+      ConservativePool(SeamLevels(scene.height_m, scene.missing_mask, params.seam_step_m), scale_);
   const cv::Mat1b seam_levels = CropWithBorder(LevelImage(seams, levels), crop_, 0);
   levels_ = PackLevels(CropWithBorder(work_levels, crop_, kOutsideLevel), seam_levels);
 
@@ -576,19 +581,18 @@ FastFge::Canvas FastFge::MakeCanvas(double angle_rad, bool whole) {
   const int m = margin_px_;
   const cv::Size size(static_cast<int>(std::ceil(w * std::abs(c) + h * std::abs(s))) + 2 * m,
                       static_cast<int>(std::ceil(w * std::abs(s) + h * std::abs(c))) + 2 * m);
-  const cv::Point2d p((w - 1) / 2, (h - 1) / 2);                          // crop centre
+  const cv::Point2d p((w - 1) / 2, (h - 1) / 2);                         // crop centre
   const cv::Point2d q((size.width - 1) / 2.0, (size.height - 1) / 2.0);  // canvas centre
   // canvas = R(-angle) (crop - p) + q: the closing axis becomes +x.
-  const cv::Matx23d canvas_from_crop(c, s, q.x - c * p.x - s * p.y, -s, c,
-                                     q.y + s * p.x - c * p.y);
+  const cv::Matx23d canvas_from_crop(c, s, q.x - c * p.x - s * p.y, -s, c, q.y + s * p.x - c * p.y);
   std::vector<cv::Rect> objects = RotatedBoxes(objects_, canvas_from_crop);
   // Only the objects' neighbourhood is read: grow their union by the reach of the box sums (the
   // same on both axes, so that the 90-degree turn of this canvas is valid as well).
   cv::Rect region(cv::Point(0, 0), size);
   const TemplateBoxes largest = LargestBoxes(work_);
   if (!whole && !objects.empty()) {
-    const int reach = std::max(largest.contact_half_len + largest.finger_outer + 1,
-                               2 * largest.half_width + 1);
+    const int reach =
+        std::max(largest.contact_half_len + largest.finger_outer + 1, 2 * largest.half_width + 1);
     cv::Rect all = objects.front();
     for (const cv::Rect& r : objects) all |= r;
     region = cv::Rect(all.x - reach, all.y - reach, all.width + 2 * reach, all.height + 2 * reach);
@@ -602,8 +606,8 @@ FastFge::Canvas FastFge::MakeCanvas(double angle_rad, bool whole) {
   canvas.crop_from_canvas(0, 2) = p.x + c * origin.x - s * origin.y;
   canvas.crop_from_canvas(1, 2) = p.y + s * origin.x + c * origin.y;
   canvas.levels = View(ws_->levels, region.size());
-  cv::warpAffine(levels_, canvas.levels, canvas.canvas_from_crop, region.size(),
-                 cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  cv::warpAffine(levels_, canvas.levels, canvas.canvas_from_crop, region.size(), cv::INTER_NEAREST,
+                 cv::BORDER_CONSTANT, 0);
   for (cv::Rect& r : objects) r -= region.tl();
   canvas.objects = std::move(objects);
   canvas.safe = SafeRect(region.size(), largest);
@@ -616,11 +620,12 @@ FastFge::Canvas FastFge::TurnedCanvas(const Canvas& canvas) const {
   Canvas turned;
   turned.levels = View(ws_->turned_levels, cv::Size(canvas.levels.rows, canvas.levels.cols));
   cv::rotate(canvas.levels, turned.levels, cv::ROTATE_90_COUNTERCLOCKWISE);
-  const cv::Matx33d turn(0, 1, 0, -1, 0, w1, 0, 0, 1);      // turned from canvas
-  const cv::Matx33d unturn(0, -1, w1, 1, 0, 0, 0, 0, 1);    // canvas from turned
+  const cv::Matx33d turn(0, 1, 0, -1, 0, w1, 0, 0, 1);    // turned from canvas
+  const cv::Matx33d unturn(0, -1, w1, 1, 0, 0, 0, 0, 1);  // canvas from turned
   const cv::Matx33d from_crop(canvas.canvas_from_crop(0, 0), canvas.canvas_from_crop(0, 1),
                               canvas.canvas_from_crop(0, 2), canvas.canvas_from_crop(1, 0),
-                              canvas.canvas_from_crop(1, 1), canvas.canvas_from_crop(1, 2), 0, 0, 1);
+                              canvas.canvas_from_crop(1, 1), canvas.canvas_from_crop(1, 2), 0, 0,
+                              1);
   const cv::Matx33d to_crop(canvas.crop_from_canvas(0, 0), canvas.crop_from_canvas(0, 1),
                             canvas.crop_from_canvas(0, 2), canvas.crop_from_canvas(1, 0),
                             canvas.crop_from_canvas(1, 1), canvas.crop_from_canvas(1, 2), 0, 0, 1);
@@ -687,8 +692,8 @@ std::pair<double, double> ParabolaPeak(double lo, double mid, double hi) {
 // >= that of every neighbouring cell holding one. Each is refined with parabolas through its
 // neighbours and moved to the nearest candidate pixel of its cell; its score is the parabolas'
 // peak value. `offset` maps candidate-map pixels to canvas pixels.
-void CellPeaks(const cv::Mat1f& candidate, const cv::Mat1f& small, const cv::Mat1f& blurred,
-               int d, cv::Point offset, std::vector<CanvasPeak>& peaks) {
+void CellPeaks(const cv::Mat1f& candidate, const cv::Mat1f& small, const cv::Mat1f& blurred, int d,
+               cv::Point offset, std::vector<CanvasPeak>& peaks) {
   const int rows = small.rows, cols = small.cols;
   auto value = [&](int r, int c) {  // blurred value where a candidate lies, else 0
     return small(r, c) > 0 ? blurred(r, c) : 0.0f;
@@ -722,8 +727,8 @@ void CellPeaks(const cv::Mat1f& candidate, const cv::Mat1f& small, const cv::Mat
         }
       }
       const double score = std::clamp(vx + vy - g, 0.0, 1.0);
-      peaks.push_back({cv::Point2d(offset.x + best.x, offset.y + best.y),
-                       static_cast<float>(score)});
+      peaks.push_back(
+          {cv::Point2d(offset.x + best.x, offset.y + best.y), static_cast<float>(score)});
     }
   }
 }
@@ -792,7 +797,8 @@ std::vector<cv::Rect> ObjectGroups(const FastFge::Canvas& canvas, const Template
   std::vector<cv::Rect> grown;
   const int a = largest.contact_half_len, b = largest.half_width;
   for (const cv::Rect& r : canvas.objects) {
-    const cv::Rect roi = cv::Rect(r.x - a, r.y - b, r.width + 2 * a, r.height + 2 * b) & canvas.safe;
+    const cv::Rect roi =
+        cv::Rect(r.x - a, r.y - b, r.width + 2 * a, r.height + 2 * b) & canvas.safe;
     if (!roi.empty()) grown.push_back(roi);
   }
   return MergeRects(std::move(grown), blur_radius);

@@ -3,9 +3,8 @@
 /// See docs/fge.md, section "Fast implementation".
 
 #include <memory>
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "service/core/fge.h"
 #include "service/core/fge_geometry.h"
@@ -27,8 +26,8 @@ class FastFge {
  public:
   /// `graspable` (image size, 255 = may be a contact surface) restricts I_t; every surface is
   /// an obstacle.
-  FastFge(const Scene& scene, const Camera& camera, const Gripper& gripper,
-          const FgeParams& params, std::vector<Slice> slices, const cv::Mat1b& graspable);
+  FastFge(const Scene& scene, const Camera& camera, const Gripper& gripper, const FgeParams& params,
+          std::vector<Slice> slices, const cv::Mat1b& graspable);
   ~FastFge();
   FastFge(const FastFge&) = delete;
   FastFge& operator=(const FastFge&) = delete;
@@ -72,9 +71,9 @@ class FastFge {
     int min_contact_px = 1;
     double blur_sigma_px = 1;
     int blur_downscale = 1;  ///< the blur runs on cells of this many pixels squared
-    int contact_level = 0;  ///< I_t = height level > contact_level
-    int tip_level = 0;      ///< I_c, slip and seams
-    int palm_level = 0;     ///< palm collisions
+    int contact_level = 0;   ///< I_t = height level > contact_level
+    int tip_level = 0;       ///< I_c, slip and seams
+    int palm_level = 0;      ///< palm collisions
   };
   /// A connected graspable object at the lowest contact level: its box in crop pixels and the
   /// highest contact level it reaches. Candidates are only evaluated around objects.
@@ -97,15 +96,15 @@ class FastFge {
   cv::Size work_size_;
   std::vector<Slice> slices_;
   std::vector<SliceWork> work_;
-  cv::Rect crop_;             ///< work pixels that can matter (may extend past the image; empty: none)
-  cv::Mat1w levels_;          ///< crop: level words (fge_fast.cpp: levels, graspable bit, seams)
+  cv::Rect crop_;     ///< work pixels that can matter (may extend past the image; empty: none)
+  cv::Mat1w levels_;  ///< crop: level words (fge_fast.cpp: levels, graspable bit, seams)
   std::vector<Object> objects_;
   int max_contact_level_ = 0;  ///< highest level of a graspable surface
   int max_level_ = 0;          ///< highest level of any surface (or of the outside)
   int max_seam_level_ = 0;
-  int min_contact_level_ = 0;  ///< contact level of the lowest slice
+  int min_contact_level_ = 0;         ///< contact level of the lowest slice
   bool contact_is_obstacle_ = false;  ///< every surface in the crop is graspable: I_t shares I_c
-  int margin_px_ = 0;          ///< reach of a template's box sums from an I_t pixel
+  int margin_px_ = 0;                 ///< reach of a template's box sums from an I_t pixel
   std::unique_ptr<Workspace> ws_;
   std::unique_ptr<Canvas> last_canvas_;  ///< canvas of the previous LocalMaxima call
   double last_angle_rad_ = 0;

@@ -355,8 +355,7 @@ std::vector<std::pair<std::size_t, std::size_t>> SliceBatches(std::size_t num_sl
   return batches;
 }
 
-cv::Mat1f SeamLevels(const cv::Mat1f& height_m_in, const cv::Mat1b& missing,
-                     double seam_step_m) {
+cv::Mat1f SeamLevels(const cv::Mat1f& height_m_in, const cv::Mat1b& missing, double seam_step_m) {
   // Filled-in pixels are no evidence of a surface: as NaN they take part in no pair and are no
   // flat continuation (sensors drop pixels along object edges, and the fill bridges the step
   // with runs of in-between heights that would look like a lower surface).

@@ -2,7 +2,6 @@
 // yardstick for the fast path (tests) and the benchmark baseline. See docs/fge.md.
 #include <cmath>
 #include <limits>
-
 #include <opencv2/imgproc.hpp>
 
 #include "service/core/fge.h"
@@ -37,8 +36,10 @@ Kernels RotatedKernels(const GripperPx& g, double angle_rad) {
       const double a = std::abs(dx * c + dy * s);
       const double b = std::abs(-dx * s + dy * c);
       if (b > half_width) continue;
-      if (a <= half_open) k.contact(dy + radius, dx + radius) = 1.0f;
-      else if (a <= outer) k.fingers(dy + radius, dx + radius) = 1.0f;
+      if (a <= half_open)
+        k.contact(dy + radius, dx + radius) = 1.0f;
+      else if (a <= outer)
+        k.fingers(dy + radius, dx + radius) = 1.0f;
     }
   }
   return k;
@@ -94,13 +95,12 @@ FgeMaps ComputeFgeMapsReference(const Scene& scene, const Camera& camera, const 
   const cv::Mat1f above_tips = Above(height, slice.tip_height_m);
   maps.collision = Correlate(above_tips, k.fingers, 1.0f);
   const cv::Mat1f tips_in_closing = Correlate(above_tips, k.contact, 1.0f);
-  const cv::Mat1f palm =
-      Correlate(Above(height, slice.palm_height_m), k.contact + k.fingers, 1.0f);
-  const cv::Mat1f seams = Correlate(
-      Above(GrowByOnePixel(fge_detail::SeamLevels(scene.height_m, scene.missing_mask,
-                                                  params.seam_step_m)),
-            slice.tip_height_m),
-      k.contact, 0.0f);
+  const cv::Mat1f palm = Correlate(Above(height, slice.palm_height_m), k.contact + k.fingers, 1.0f);
+  const cv::Mat1f seams =
+      Correlate(Above(GrowByOnePixel(fge_detail::SeamLevels(scene.height_m, scene.missing_mask,
+                                                            params.seam_step_m)),
+                      slice.tip_height_m),
+                k.contact, 0.0f);
 
   const int min_contact = fge_detail::MinContactCount(cv::countNonZero(k.contact));
   cv::Mat1f candidate(height.size());

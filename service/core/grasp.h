@@ -33,17 +33,17 @@ inline double MmFromMetres(double m) { return std::round(m * 1e9) / 1e6; }
 /// One grasp. Pixel quantities are in the input image; the pose is in the camera frame C
 /// (OpenCV convention). Heights are measured above the fitted floor plane.
 struct Grasp {
-  double center_u_px = 0;       ///< image column of the grasp centre
-  double center_v_px = 0;       ///< image row of the grasp centre
-  double angle_rad = 0;         ///< closing axis angle in the image, from +u towards +v, in [0, pi)
-  double opening_px = 0;        ///< distance between the inner finger faces, pixels
-  double opening_m = 0;         ///< same, metres, at the grasp point
-  double finger_width_px = 0;   ///< finger footprint across the closing axis, pixels
+  double center_u_px = 0;      ///< image column of the grasp centre
+  double center_v_px = 0;      ///< image row of the grasp centre
+  double angle_rad = 0;        ///< closing axis angle in the image, from +u towards +v, in [0, pi)
+  double opening_px = 0;       ///< distance between the inner finger faces, pixels
+  double opening_m = 0;        ///< same, metres, at the grasp point
+  double finger_width_px = 0;  ///< finger footprint across the closing axis, pixels
   double finger_thickness_px = 0;  ///< finger footprint along the closing axis, pixels
-  double contact_height_m = 0;  ///< slice whose surface the fingers close on, above the floor
-  double grasp_height_m = 0;    ///< fingertip height above the floor (contact slice minus grip depth)
-  double score = 0;             ///< graspability, in [0, 1]; higher is better
-  int height_step = 0;          ///< index of the height slice used (0 = highest)
+  double contact_height_m = 0;     ///< slice whose surface the fingers close on, above the floor
+  double grasp_height_m = 0;  ///< fingertip height above the floor (contact slice minus grip depth)
+  double score = 0;           ///< graspability, in [0, 1]; higher is better
+  int height_step = 0;        ///< index of the height slice used (0 = highest)
   /// Grasp point (between the fingertips) in the camera frame, metres.
   std::array<double, 3> p_CG_m{0, 0, 0};
   /// Orientation of the gripper frame G in C as a unit quaternion (w, x, y, z). G's z axis is the

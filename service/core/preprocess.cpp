@@ -20,7 +20,7 @@ namespace {
 
 constexpr double kMinValidFraction = 0.01;  // fewer valid pixels than this: kUnprocessable
 constexpr int kMinValidPixels = 16;
-constexpr int kFillTargetRows = 120;        // inpainting runs at about this many rows
+constexpr int kFillTargetRows = 120;  // inpainting runs at about this many rows
 constexpr int kMaxFillDownscale = 4;
 constexpr float kInpaintUnitsPerM = 1e4f;   // Telea is tuned for large values: use 0.1 mm units
 constexpr int kSampleTargetRows = 120;      // floor fit samples about this many rows of pixels
@@ -30,8 +30,8 @@ constexpr double kBelowFloorWeight = 10.0;  // RANSAC score = inliers - 10 * poi
 constexpr int kMinBelowToSearchDeeper = 10;
 constexpr double kMinBelowFractionToSearchDeeper = 0.002;
 constexpr int kMaxDeeperRounds = 4;
-constexpr double kMinCameraToFloorM = 0.01; // a "floor" through the camera is degenerate
-constexpr double kMinFloorNormalZ = 0.5;    // floors seen at > 60 deg from the optical axis: no
+constexpr double kMinCameraToFloorM = 0.01;  // a "floor" through the camera is degenerate
+constexpr double kMinFloorNormalZ = 0.5;     // floors seen at > 60 deg from the optical axis: no
 constexpr int kRefineRounds = 2;
 constexpr std::size_t kMaxScoringPoints = 5000;  // RANSAC scores hypotheses on this many points
 
@@ -216,8 +216,8 @@ std::optional<Plane> RansacFloor(const SampledPoints& points, const PreprocessPa
   };
   draw_from(points.deeper_half);
   if (points.deepest.size() >= 3) draw_from(points.deepest);
-  const auto min_below = std::max<double>(kMinBelowToSearchDeeper,
-                                          kMinBelowFractionToSearchDeeper * scoring.size());
+  const auto min_below =
+      std::max<double>(kMinBelowToSearchDeeper, kMinBelowFractionToSearchDeeper * scoring.size());
   for (int round = 0; round < kMaxDeeperRounds && best && best_score.below >= min_below; ++round) {
     const std::vector<int> behind = PointsBehind(*best, points, inlier_m);
     if (behind.size() < 3) break;
@@ -230,8 +230,7 @@ std::optional<Plane> RansacFloor(const SampledPoints& points, const PreprocessPa
 }
 
 // Least-squares plane (centroid + smallest principal axis) over the inliers of `plane`.
-std::optional<Plane> RefineFloor(const Plane& plane, const SampledPoints& points,
-                                 double inlier_m) {
+std::optional<Plane> RefineFloor(const Plane& plane, const SampledPoints& points, double inlier_m) {
   const Eigen::Vector3d n(plane.n[0], plane.n[1], plane.n[2]);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
@@ -278,8 +277,7 @@ cv::Mat1f HeightAboveFloor(const cv::Mat1f& depth_m, const Camera& camera, const
   cv::Mat1f height(depth_m.size());
   const auto d = static_cast<float>(floor.d);
   for (int v = 0; v < depth_m.rows; ++v) {
-    const auto row_term =
-        static_cast<float>(floor.n[1] * (v - camera.cy) / camera.fy + floor.n[2]);
+    const auto row_term = static_cast<float>(floor.n[1] * (v - camera.cy) / camera.fy + floor.n[2]);
     HeightRow(depth_m.ptr<float>(v), column_term.data(), row_term, d, depth_m.cols,
               height.ptr<float>(v));
   }

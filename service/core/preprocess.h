@@ -1,5 +1,6 @@
 #pragma once
-/// Depth preprocessing: fill missing pixels, find the floor (table or bin bottom), heights above it.
+/// Depth preprocessing: fill missing pixels, find the floor (table or bin bottom), heights above
+/// it.
 
 #include <array>
 
@@ -16,10 +17,10 @@ struct Plane {
 };
 
 struct PreprocessParams {
-  double inpaint_radius_px = 3.0;     ///< cv::inpaint radius for missing pixels
-  int ransac_iterations = 200;        ///< floor plane fit
-  double floor_inlier_m = 0.004;      ///< point-to-plane distance for a floor inlier
-  unsigned ransac_seed = 12345;       ///< fixed: same input, same plane
+  double inpaint_radius_px = 3.0;  ///< cv::inpaint radius for missing pixels
+  int ransac_iterations = 200;     ///< floor plane fit
+  double floor_inlier_m = 0.004;   ///< point-to-plane distance for a floor inlier
+  unsigned ransac_seed = 12345;    ///< fixed: same input, same plane
 };
 
 struct Scene {

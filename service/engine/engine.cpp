@@ -21,9 +21,9 @@ struct PlanContext {
   const core::Scene& scene;
   const core::Camera& camera;
   const PlanOptions& options;
-  const cv::Mat1f& stiffness;      ///< empty unless needed or wanted
-  const Instances* instances;      ///< null unless needed or asked for
-  int target_id;                   ///< > 0: the requested target
+  const cv::Mat1f& stiffness;  ///< empty unless needed or wanted
+  const Instances* instances;  ///< null unless needed or asked for
+  int target_id;               ///< > 0: the requested target
 };
 
 void PlanFge(const PlanContext& c, Plan* plan) {
@@ -55,8 +55,8 @@ void PlanDeformability(const PlanContext& c, Plan* plan) {
   params.target_id = c.target_id;
   const Instances& in = *c.instances;
   const core::DeformabilityResult planned = core::DetectGraspsDeformability(
-      c.scene, c.camera, {in.labels, in.scores, in.deformability, in.foreground},
-      c.options.gripper, params);
+      c.scene, c.camera, {in.labels, in.scores, in.deformability, in.foreground}, c.options.gripper,
+      params);
   for (const core::DeformabilityGrasp& dg : planned.grasps) {
     PlannedGrasp p;
     p.grasp = dg.grasp;
@@ -70,8 +70,8 @@ void PlanDeformability(const PlanContext& c, Plan* plan) {
         dg.press_depth_m};
     plan->grasps.push_back(std::move(p));
   }
-  plan->target = TargetChoice{planned.target_id, params.policy, planned.tried_ids,
-                              planned.fallback};
+  plan->target =
+      TargetChoice{planned.target_id, params.policy, planned.tried_ids, planned.fallback};
 }
 
 using Planner = void (*)(const PlanContext&, Plan*);
@@ -249,9 +249,9 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
 
   if (options.plan && !plan.target_not_found) {
     const auto detect_start = Clock::now();
-    const PlanContext context{plan.scene,     camera,
-                              options,        plan.stiffness,
-                              plan.instances ? &*plan.instances : nullptr, target_id};
+    const PlanContext context{
+        plan.scene, camera, options, plan.stiffness, plan.instances ? &*plan.instances : nullptr,
+        target_id};
     try {
       strategy.plan(context, &plan);
     } catch (const std::invalid_argument& e) {
@@ -261,7 +261,8 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
     if (plan.instances) {
       const Instances& in = *plan.instances;
       for (PlannedGrasp& g : plan.grasps) {
-        if (!g.instance_id) g.instance_id = InstanceAt(in.labels, g.grasp.center_u_px, g.grasp.center_v_px);
+        if (!g.instance_id)
+          g.instance_id = InstanceAt(in.labels, g.grasp.center_u_px, g.grasp.center_v_px);
         const auto id = static_cast<std::size_t>(*g.instance_id);
         if (id > 0 && id < in.mean_deformability.size() && in.mean_deformability[id] &&
             std::isfinite(*in.mean_deformability[id])) {

@@ -10,11 +10,10 @@
 ///   for (const engine::PlannedGrasp& g : plan.value().grasps) ...
 
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string_view>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "service/core/depth.h"
 #include "service/core/fge.h"
@@ -143,7 +142,7 @@ struct PlanTimings {
 };
 
 struct Plan {
-  core::Scene scene;   ///< preprocessed, with the contact restrictions applied
+  core::Scene scene;    ///< preprocessed, with the contact restrictions applied
   cv::Mat1f stiffness;  ///< the stiffness map used or wanted; empty when none
   std::optional<Instances> instances;
   std::vector<PlannedGrasp> grasps;    ///< best first

@@ -32,8 +32,7 @@ core::Result<segmentation::Method> ResolveSegmentationMethod(
   return *requested;
 }
 
-core::Result<SceneInstances> SegmentInstances(const core::Scene& scene,
-                                              const core::Camera& camera,
+core::Result<SceneInstances> SegmentInstances(const core::Scene& scene, const core::Camera& camera,
                                               segmentation::Method method,
                                               const models::SegmentationModel* model) {
   const auto start = Clock::now();
@@ -139,13 +138,12 @@ core::Result<Instances> InstancesForPlan(const InstanceRequest& request, const c
   out.scores.resize(static_cast<std::size_t>(max_id), 1.0f);
   const int target = request.target_id;
   if (target > 0 && (target > static_cast<int>(max_id) || !present[target])) {
-    return core::MakeError(core::ErrorCode::kUnprocessable,
-                           "target " + std::to_string(target) +
-                               " is not an instance of the segmentation (" +
-                               std::to_string(out.count) + " instances, ids up to " +
-                               std::to_string(static_cast<int>(max_id)) +
-                               "; see POST /v1/segmentation)",
-                           "target");
+    return core::MakeError(
+        core::ErrorCode::kUnprocessable,
+        "target " + std::to_string(target) + " is not an instance of the segmentation (" +
+            std::to_string(out.count) + " instances, ids up to " +
+            std::to_string(static_cast<int>(max_id)) + "; see POST /v1/segmentation)",
+        "target");
   }
   return out;
 }

@@ -4,10 +4,9 @@
 /// describing the instances.
 
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "service/core/depth.h"
 #include "service/core/preprocess.h"
@@ -39,8 +38,7 @@ struct SceneInstances {
 /// Runs `method` on a preprocessed scene (core::Preprocess) seen by `camera`. `model` must be
 /// non-null for Method::kModel. Errors: the PCL segmenter's (a scene and camera of different
 /// sizes); a scene with no objects gives zero instances.
-core::Result<SceneInstances> SegmentInstances(const core::Scene& scene,
-                                              const core::Camera& camera,
+core::Result<SceneInstances> SegmentInstances(const core::Scene& scene, const core::Camera& camera,
                                               segmentation::Method method,
                                               const models::SegmentationModel* model);
 

@@ -23,8 +23,8 @@ struct Request {
   std::string query_string;  ///< raw query, without '?'
   std::vector<std::pair<std::string, std::string>> query;  ///< decoded key/value pairs, in order
   Headers headers;
-  std::string body;          ///< de-chunked body
-  std::string request_id;    ///< assigned by the server (or taken from X-Request-Id), echoed back
+  std::string body;        ///< de-chunked body
+  std::string request_id;  ///< assigned by the server (or taken from X-Request-Id), echoed back
   std::map<std::string, std::string> path_params;  ///< filled by the Router from "{name}" segments
 
   std::optional<std::string_view> header(std::string_view name) const {

@@ -159,13 +159,27 @@ RequestParser::State RequestParser::Advance() {
   bool progressed = true;
   while (state_ == State::kNeedMore && progressed) {
     switch (phase_) {
-      case Phase::kRequestLine: progressed = StepRequestLine(); break;
-      case Phase::kHeaders: progressed = StepHeaderLine(); break;
-      case Phase::kBody: progressed = StepBody(); break;
-      case Phase::kChunkSize: progressed = StepChunkSize(); break;
-      case Phase::kChunkData: progressed = StepChunkData(); break;
-      case Phase::kChunkDataEnd: progressed = StepChunkDataEnd(); break;
-      case Phase::kTrailers: progressed = StepTrailerLine(); break;
+      case Phase::kRequestLine:
+        progressed = StepRequestLine();
+        break;
+      case Phase::kHeaders:
+        progressed = StepHeaderLine();
+        break;
+      case Phase::kBody:
+        progressed = StepBody();
+        break;
+      case Phase::kChunkSize:
+        progressed = StepChunkSize();
+        break;
+      case Phase::kChunkData:
+        progressed = StepChunkData();
+        break;
+      case Phase::kChunkDataEnd:
+        progressed = StepChunkDataEnd();
+        break;
+      case Phase::kTrailers:
+        progressed = StepTrailerLine();
+        break;
     }
   }
   if (state_ == State::kNeedMore && pos_ > 0) {  // drop consumed bytes; the rest is a partial unit
@@ -226,17 +240,17 @@ bool RequestParser::CheckRequestLineLimits(std::string_view line, std::size_t li
   }
   if (uri_break == kNpos && header_break == kNpos) return true;
   if (uri_break <= header_break) {
-    return Fail(414, "request target longer than " + std::to_string(limits_.max_uri_bytes) +
-                         " bytes");
+    return Fail(414,
+                "request target longer than " + std::to_string(limits_.max_uri_bytes) + " bytes");
   }
-  return Fail(431, "request header block larger than " +
-                       std::to_string(limits_.max_header_bytes) + " bytes");
+  return Fail(431, "request header block larger than " + std::to_string(limits_.max_header_bytes) +
+                       " bytes");
 }
 
 bool RequestParser::CheckFieldLineLimit(std::size_t line_bytes) {
   if (header_bytes_ + line_bytes <= limits_.max_header_bytes) return true;
-  return Fail(431, "request header block larger than " +
-                       std::to_string(limits_.max_header_bytes) + " bytes");
+  return Fail(431, "request header block larger than " + std::to_string(limits_.max_header_bytes) +
+                       " bytes");
 }
 
 bool RequestParser::StepRequestLine() {
@@ -277,8 +291,8 @@ bool RequestParser::ParseRequestLine(std::string_view line) {
                               IsDigit(version[5]) && version[6] == '.' && IsDigit(version[7]);
   if (!version_syntax) return Fail(400, "malformed HTTP version");
   if (version[5] != '1' || (version[7] != '0' && version[7] != '1')) {
-    return Fail(505, "HTTP version " + std::string(version.substr(5)) +
-                         " not supported; use 1.1 or 1.0");
+    return Fail(
+        505, "HTTP version " + std::string(version.substr(5)) + " not supported; use 1.1 or 1.0");
   }
   http10_ = version[7] == '0';
   current_.method = std::string(method);
@@ -286,9 +300,8 @@ bool RequestParser::ParseRequestLine(std::string_view line) {
 }
 
 bool RequestParser::ParseTarget(std::string_view target) {
-  const bool visible_ascii = std::all_of(target.begin(), target.end(), [](char c) {
-    return c > 0x20 && c < 0x7f && c != '#';
-  });
+  const bool visible_ascii = std::all_of(target.begin(), target.end(),
+                                         [](char c) { return c > 0x20 && c < 0x7f && c != '#'; });
   if (!visible_ascii) return Fail(400, "invalid character in request target");
   current_.target = std::string(target);
 
@@ -403,8 +416,8 @@ bool RequestParser::StepHeadersDone() {
   if (content_lengths == 1) {
     if (!ParseDecimal(content_length, &content_length_)) return Fail(400, "invalid Content-Length");
     if (content_length_ > limits_.max_body_bytes) {
-      return Fail(413, "request body larger than " + std::to_string(limits_.max_body_bytes) +
-                           " bytes");
+      return Fail(413,
+                  "request body larger than " + std::to_string(limits_.max_body_bytes) + " bytes");
     }
   }
 
@@ -470,8 +483,8 @@ bool RequestParser::StepChunkSize() {
     return true;
   }
   if (size > limits_.max_body_bytes - current_.body.size()) {
-    return Fail(413, "request body larger than " + std::to_string(limits_.max_body_bytes) +
-                         " bytes");
+    return Fail(413,
+                "request body larger than " + std::to_string(limits_.max_body_bytes) + " bytes");
   }
   chunk_remaining_ = size;
   phase_ = Phase::kChunkData;

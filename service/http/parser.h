@@ -43,8 +43,7 @@ class RequestParser {
   /// True while the body (or its chunks and trailers) of a request whose header block is complete
   /// is still arriving: the header deadline is over, the body deadline applies.
   bool reading_body() const {
-    return state_ == State::kNeedMore && phase_ != Phase::kRequestLine &&
-           phase_ != Phase::kHeaders;
+    return state_ == State::kNeedMore && phase_ != Phase::kRequestLine && phase_ != Phase::kHeaders;
   }
   /// Whether the connection may stay open after answering the last taken request.
   bool keep_alive() const { return keep_alive_; }
@@ -100,7 +99,7 @@ class RequestParser {
   bool keep_alive_ = true;          ///< of the last taken request
   bool request_keep_alive_ = true;  ///< of the request being parsed
   bool expects_continue_ = false;
-  bool http10_ = false;             ///< the request being parsed is HTTP/1.0
+  bool http10_ = false;  ///< the request being parsed is HTTP/1.0
   Phase phase_ = Phase::kRequestLine;
   std::size_t content_length_ = 0;   ///< body bytes still to read (kBody)
   std::size_t chunk_remaining_ = 0;  ///< chunk-data bytes still to read (kChunkData)

@@ -65,8 +65,8 @@ std::string HttpDate(std::chrono::system_clock::time_point time) {
 
 std::string SerializeResponse(const Response& response, const ResponseFraming& framing,
                               std::size_t* body_bytes) {
-  std::string out = "HTTP/1.1 " + std::to_string(response.status) + " " +
-                    ReasonPhrase(response.status) + "\r\n";
+  std::string out =
+      "HTTP/1.1 " + std::to_string(response.status) + " " + ReasonPhrase(response.status) + "\r\n";
   for (const auto& [name, value] : response.headers) {
     if (IsServerOwnedHeader(name) || !IsSafeHeader(name, value)) continue;
     out += name + ": " + value + "\r\n";

@@ -29,7 +29,8 @@ bool IsCapture(std::string_view segment) {
 std::optional<std::vector<std::string>> RequestSegments(const Request& request) {
   std::vector<std::string> out;
   if (!request.target.empty() && request.target.front() == '/') {
-    const std::string_view raw = std::string_view(request.target).substr(0, request.target.find('?'));
+    const std::string_view raw =
+        std::string_view(request.target).substr(0, request.target.find('?'));
     for (const std::string_view segment : SplitPath(raw)) {
       if (segment.find('%') == std::string_view::npos) {
         out.emplace_back(segment);  // nothing to decode
@@ -86,8 +87,7 @@ void Router::Add(std::string method, std::string pattern, Handler handler, Execu
   routes_.push_back(std::move(route));
 }
 
-const Router::Route* Router::Find(const Request& request,
-                                  const std::vector<std::string>* segments,
+const Router::Route* Router::Find(const Request& request, const std::vector<std::string>* segments,
                                   std::vector<std::string>* allowed) const {
   // Among routes whose pattern matches, the one for this method with the most literal segments
   // wins (ties: first registered). A GET route stands in for a missing HEAD route.

@@ -47,11 +47,11 @@ using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 
 constexpr std::size_t kReadChunk = 64 * 1024;
-constexpr int kReadsPerEvent = 16;         ///< fairness: at most this many recv()s per wake-up
-constexpr int kFlushTimeoutMs = 2'000;     ///< an error answer must go out within this
-constexpr int kDrainMs = 1'000;            ///< after our FIN, unread input is discarded this long
-constexpr int kMinWriteTimeoutMs = 10'000; ///< workers give up on a client not reading its answer
-constexpr std::size_t kMaxRejecting = 64;  ///< turned-away connections being answered at once
+constexpr int kReadsPerEvent = 16;          ///< fairness: at most this many recv()s per wake-up
+constexpr int kFlushTimeoutMs = 2'000;      ///< an error answer must go out within this
+constexpr int kDrainMs = 1'000;             ///< after our FIN, unread input is discarded this long
+constexpr int kMinWriteTimeoutMs = 10'000;  ///< workers give up on a client not reading its answer
+constexpr std::size_t kMaxRejecting = 64;   ///< turned-away connections being answered at once
 constexpr int kMaxPollWaitMs = 1'000;
 constexpr int kMaxEventsPerWait = 256;
 // epoll data of the two non-connection descriptors; connection ids start above them.
@@ -113,15 +113,24 @@ std::string IsoTime(std::chrono::system_clock::time_point t) {
 
 const char* ErrorCodeFor(int status) {
   switch (status) {
-    case 400: return "bad_request";
-    case 408: return "request_timeout";
-    case 413: return "payload_too_large";
-    case 414: return "uri_too_long";
-    case 431: return "header_fields_too_large";
-    case 501: return "not_implemented";
-    case 503: return "service_unavailable";
-    case 505: return "http_version_not_supported";
-    default: return "internal";
+    case 400:
+      return "bad_request";
+    case 408:
+      return "request_timeout";
+    case 413:
+      return "payload_too_large";
+    case 414:
+      return "uri_too_long";
+    case 431:
+      return "header_fields_too_large";
+    case 501:
+      return "not_implemented";
+    case 503:
+      return "service_unavailable";
+    case 505:
+      return "http_version_not_supported";
+    default:
+      return "internal";
   }
 }
 
@@ -200,10 +209,10 @@ struct Server::Impl {
     std::string peer;  ///< the client's address bytes (per-client limit); empty if unknown
     RequestParser parser;
     Phase phase = Phase::kReading;
-    bool rejected = false;       ///< over a connection cap: answered 503, not counted
-    bool sent_continue = false;  ///< "100 Continue" already queued for the current request
-    bool body_started = false;   ///< the current request's header block is complete
-    std::string out;             ///< bytes the I/O thread still has to write
+    bool rejected = false;            ///< over a connection cap: answered 503, not counted
+    bool sent_continue = false;       ///< "100 Continue" already queued for the current request
+    bool body_started = false;        ///< the current request's header block is complete
+    std::string out;                  ///< bytes the I/O thread still has to write
     Clock::time_point idle_since;     ///< accepted, or last answer handed back
     Clock::time_point request_start;  ///< first byte of the request being read
     Clock::time_point body_start;     ///< end of the current request's header block
@@ -334,16 +343,16 @@ void Server::Impl::Bind() {
   hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
   addrinfo* found = nullptr;
   const std::string port_text = std::to_string(options.port);
-  const int rc = ::getaddrinfo(host.empty() ? nullptr : host.c_str(), port_text.c_str(), &hints,
-                               &found);
+  const int rc =
+      ::getaddrinfo(host.empty() ? nullptr : host.c_str(), port_text.c_str(), &hints, &found);
   if (rc != 0) {
     throw std::runtime_error("cannot resolve listen address '" + options.host +
                              "': " + ::gai_strerror(rc));
   }
   std::string error = "no usable address";
   for (addrinfo* ai = found; ai != nullptr && listen_fd < 0; ai = ai->ai_next) {
-    const int fd = ::socket(ai->ai_family, ai->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC,
-                            ai->ai_protocol);
+    const int fd =
+        ::socket(ai->ai_family, ai->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC, ai->ai_protocol);
     if (fd < 0) {
       error = Errno("socket");
       continue;
@@ -375,7 +384,8 @@ void Server::Impl::Bind() {
   epoll_event wake_event{};
   wake_event.events = EPOLLIN;
   wake_event.data.u64 = kWakeId;
-  if (wake_fd < 0 || epoll_fd < 0 || ::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, wake_fd, &wake_event) != 0) {
+  if (wake_fd < 0 || epoll_fd < 0 ||
+      ::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, wake_fd, &wake_event) != 0) {
     const std::string message = Errno("eventfd/epoll");
     for (int* fd : {&listen_fd, &wake_fd, &epoll_fd}) {
       if (*fd >= 0) ::close(*fd);
@@ -416,8 +426,9 @@ void Server::Impl::IoIteration() {
   WatchListener(Clock::now());
   FlushIoLog();  // before waiting: no line waits for the next event
 
-  const int ready = ::epoll_wait(epoll_fd, ready_events.data(),
-                                 static_cast<int>(ready_events.size()), WaitTimeoutMs(Clock::now()));
+  const int ready =
+      ::epoll_wait(epoll_fd, ready_events.data(), static_cast<int>(ready_events.size()),
+                   WaitTimeoutMs(Clock::now()));
   if (ready < 0 && errno != EINTR) throw std::runtime_error(Errno("epoll_wait"));
   for (int i = 0; i < ready; ++i) {
     const epoll_event& event = ready_events[static_cast<std::size_t>(i)];
@@ -541,11 +552,13 @@ void Server::Impl::Expire(Connection& c, Clock::time_point now) {
   if (c.phase != Connection::Phase::kReading) {
     Close(c);  // an answer that could not go out, or a drain that did not end, in time
   } else if (c.body_started) {
-    SendError(c, 408, "request body not received within " +
-                          std::to_string(options.body_timeout_ms) + " ms");
+    SendError(
+        c, 408,
+        "request body not received within " + std::to_string(options.body_timeout_ms) + " ms");
   } else if (c.parser.in_progress()) {
-    SendError(c, 408, "request header not received within " +
-                          std::to_string(options.header_timeout_ms) + " ms");
+    SendError(
+        c, 408,
+        "request header not received within " + std::to_string(options.header_timeout_ms) + " ms");
   } else {
     Close(c);  // idle keep-alive: silently
   }
@@ -570,10 +583,15 @@ void Server::Impl::Refresh(Connection& c) {
       if (c.parser.state() == RequestParser::State::kNeedMore) want |= EPOLLIN;
       if (!c.out.empty()) want |= EPOLLOUT;
       break;
-    case Connection::Phase::kClosing: want = EPOLLOUT; break;
-    case Connection::Phase::kDraining: want = EPOLLIN; break;
+    case Connection::Phase::kClosing:
+      want = EPOLLOUT;
+      break;
+    case Connection::Phase::kDraining:
+      want = EPOLLIN;
+      break;
     case Connection::Phase::kBusy:  // a worker owns the socket: not even its errors are watched
-    case Connection::Phase::kClosed: break;
+    case Connection::Phase::kClosed:
+      break;
   }
   if (want != c.watched) {
     epoll_event event{};
@@ -623,8 +641,8 @@ void Server::Impl::AcceptAll() {
       ::close(fd);  // flooded: not even a 503
       continue;
     }
-    auto owned = std::make_unique<Connection>(next_connection_id++, fd, std::move(peer),
-                                              options.limits);
+    auto owned =
+        std::make_unique<Connection>(next_connection_id++, fd, std::move(peer), options.limits);
     Connection& c = *owned;
     connections.emplace(c.id, std::move(owned));
     c.idle_since = c.request_start = Clock::now();
@@ -753,8 +771,8 @@ void Server::Impl::AnswerInline(Connection& c, WorkItem& item) {
   std::size_t body_bytes = 0;
   c.out += SerializeResponse(
       response, {item.request.request_id, true, item.request.method == "HEAD"}, &body_bytes);
-  Log(item.request.request_id, item.request.method, item.request.path, response.status,
-      body_bytes, item.start);
+  Log(item.request.request_id, item.request.method, item.request.path, response.status, body_bytes,
+      item.start);
   if (!FlushOut(c)) return;
   const auto now = Clock::now();
   c.idle_since = now;
@@ -874,8 +892,8 @@ Response Server::Impl::CallHandler(Request& request) {
   try {
     Response response = handler(request);
     if (response.status < 200 || response.status > 599) {
-      return ErrorResponse(500, "internal", "handler returned invalid status " +
-                                                std::to_string(response.status));
+      return ErrorResponse(500, "internal",
+                           "handler returned invalid status " + std::to_string(response.status));
     }
     return response;
   } catch (const std::exception& e) {
@@ -938,8 +956,8 @@ void Server::Impl::Log(const std::string& request_id, std::string_view method,
                        Clock::time_point start) {
   const auto ms = std::chrono::duration_cast<milliseconds>(Clock::now() - start).count();
   std::string line = IsoTime(std::chrono::system_clock::now()) + " " + LogField(request_id) + " " +
-                     LogField(method) + " " + LogField(path) + " " + std::to_string(status) +
-                     " " + std::to_string(body_bytes) + " " + std::to_string(ms) + "ms";
+                     LogField(method) + " " + LogField(path) + " " + std::to_string(status) + " " +
+                     std::to_string(body_bytes) + " " + std::to_string(ms) + "ms";
   if (!options.access_log && t_on_io_thread) {
     // Written with the rest of this loop iteration's lines (FlushIoLog): one write per batch.
     io_log += line;

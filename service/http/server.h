@@ -14,9 +14,9 @@ namespace softgrasp::http {
 
 struct ServerOptions {
   std::string host = "127.0.0.1";
-  uint16_t port = 8080;               ///< 0 picks a free port; see Server::port()
-  int num_workers = 2;                ///< fixed worker pool size
-  std::size_t queue_capacity = 64;    ///< complete requests waiting for a worker; full -> 503
+  uint16_t port = 8080;                  ///< 0 picks a free port; see Server::port()
+  int num_workers = 2;                   ///< fixed worker pool size
+  std::size_t queue_capacity = 64;       ///< complete requests waiting for a worker; full -> 503
   std::size_t max_connections = 10'000;  ///< open connections; over the cap -> 503 and close
   /// Open connections from one client address (IPv4, or IPv6); over it -> 503 and close. 0 = no
   /// per-client limit (behind a balancer every client has the balancer's address).

@@ -3,10 +3,9 @@
 /// declared image size against `max_pixels` before it allocates or decompresses anything.
 
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <string>
 #include <string_view>
-
-#include <opencv2/core.hpp>
 
 #include "service/core/depth.h"
 #include "service/core/status.h"
@@ -18,8 +17,8 @@ enum class DepthFormat { kNpy, kPng16, kTiff };
 const char* DepthFormatName(DepthFormat format);  ///< "npy", "png16", "tiff"
 
 struct DepthDecodeOptions {
-  double png_unit_m = 0.001;             ///< metres per PNG count (default: millimetres)
-  std::int64_t max_pixels = 4096 * 4096; ///< larger images are refused before decoding (413)
+  double png_unit_m = 0.001;              ///< metres per PNG count (default: millimetres)
+  std::int64_t max_pixels = 4096 * 4096;  ///< larger images are refused before decoding (413)
 };
 
 /// Recognises the format from the magic bytes. kUnsupportedMediaType when none matches.

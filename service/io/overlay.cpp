@@ -208,8 +208,8 @@ cv::Mat3b DrawInstances(const cv::Mat3b& background, const cv::Mat1w& labels, in
                            std::clamp(inside.y + size.height / 2, size.height, labels.rows - 1));
     cv::putText(image, text, origin, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), 4,
                 cv::LINE_AA);
-    cv::putText(image, text, origin, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(255, 255, 255),
-                1, cv::LINE_AA);
+    cv::putText(image, text, origin, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(255, 255, 255), 1,
+                cv::LINE_AA);
   }
   return image;
 }

@@ -1,9 +1,8 @@
 #pragma once
 /// Pictures of results: the depth colour-mapped with grasps drawn over it; object instances.
 
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "service/core/depth.h"
 #include "service/core/grasp.h"
@@ -32,8 +31,7 @@ cv::Mat3b DrawGrasps(const cv::Mat3b& background, const std::vector<core::Grasp>
 /// so an id has the same colour in every picture), outlined, and its number written at the
 /// instance pixel farthest from its outline. `highlight_id` (> 0) is outlined thicker in white.
 /// Returns a copy. @throws std::invalid_argument when the sizes differ.
-cv::Mat3b DrawInstances(const cv::Mat3b& background, const cv::Mat1w& labels,
-                        int highlight_id = 0);
+cv::Mat3b DrawInstances(const cv::Mat3b& background, const cv::Mat1w& labels, int highlight_id = 0);
 
 /// The outline of `mask` (non-zero pixels, the picture's size) drawn in white over a copy of
 /// `background` (e.g. the target object of strategy=deformability). Empty mask: a plain copy.

@@ -5,11 +5,11 @@
 
 #include <algorithm>
 #include <bit>
-#include <iterator>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <stdexcept>
@@ -172,8 +172,8 @@ int MaskChannels(int color_type) {
 
 /// Decodes a mask PNG into `rows` of `row_bytes` each: 8- or 16-bit samples, grey or RGB, no
 /// alpha; false after a libpng error (longjmp target: nothing here has a destructor).
-bool ReadMaskRows(png_structp png, png_infop info, const PngHeader& header,
-                  png_size_t row_bytes, png_bytepp rows) {
+bool ReadMaskRows(png_structp png, png_infop info, const PngHeader& header, png_size_t row_bytes,
+                  png_bytepp rows) {
   if (setjmp(png_jmpbuf(png))) return false;
   png_set_benign_errors(png, 0);
   png_read_info(png, info);
@@ -196,8 +196,8 @@ bool ReadMaskRows(png_structp png, png_infop info, const PngHeader& header,
 }  // namespace
 
 core::Result<cv::Mat1b> DecodeMask(std::string_view bytes, std::int64_t max_pixels) {
-  if (bytes.size() < kSignatureSize || png_sig_cmp(reinterpret_cast<png_const_bytep>(bytes.data()),
-                                                   0, kSignatureSize) != 0) {
+  if (bytes.size() < kSignatureSize ||
+      png_sig_cmp(reinterpret_cast<png_const_bytep>(bytes.data()), 0, kSignatureSize) != 0) {
     return MaskError(DepthError(ErrorCode::kUnsupportedMediaType, "the mask must be a PNG"));
   }
   const auto header = ReadIhdr(bytes);
@@ -208,15 +208,16 @@ core::Result<cv::Mat1b> DecodeMask(std::string_view bytes, std::int64_t max_pixe
                         std::end(kValidDepths);
   if (!depth_ok || h.color_type > 6 || h.color_type == 1 || h.color_type == 5) {
     return MaskError(DepthError(ErrorCode::kInvalidArgument,
-                                "corrupt PNG: bit depth " + std::to_string(h.bit_depth) +
-                                    " with " + ColorTypeName(h.color_type)));
+                                "corrupt PNG: bit depth " + std::to_string(h.bit_depth) + " with " +
+                                    ColorTypeName(h.color_type)));
   }
   if (auto error = detail::CheckImageSize(h.height, h.width, max_pixels, "PNG")) {
     return MaskError(*error);
   }
   const int bytes_per_sample = h.bit_depth == 16 ? 2 : 1;
   const int bytes_per_pixel = MaskChannels(h.color_type) * bytes_per_sample;
-  const auto row_bytes = static_cast<png_size_t>(h.width) * static_cast<png_size_t>(bytes_per_pixel);
+  const auto row_bytes =
+      static_cast<png_size_t>(h.width) * static_cast<png_size_t>(bytes_per_pixel);
   std::vector<png_byte> buffer(row_bytes * static_cast<std::size_t>(h.height));
   std::vector<png_bytep> rows(static_cast<std::size_t>(h.height));
   for (std::size_t r = 0; r < rows.size(); ++r) rows[r] = buffer.data() + r * row_bytes;
@@ -225,11 +226,13 @@ core::Result<cv::Mat1b> DecodeMask(std::string_view bytes, std::int64_t max_pixe
   PngReadStruct reader;
   reader.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &source, OnPngError, OnPngWarning);
   if (reader.png) reader.info = png_create_info_struct(reader.png);
-  if (!reader.info) return MaskError(DepthError(ErrorCode::kInternal, "cannot create a PNG reader"));
+  if (!reader.info)
+    return MaskError(DepthError(ErrorCode::kInternal, "cannot create a PNG reader"));
   png_set_read_fn(reader.png, &source, ReadFromMemory);
   if (!ReadMaskRows(reader.png, reader.info, h, row_bytes, rows.data())) {
-    return MaskError(DepthError(ErrorCode::kInvalidArgument,
-                                "corrupt or truncated PNG: " + detail::Printable(source.error, 120)));
+    return MaskError(
+        DepthError(ErrorCode::kInvalidArgument,
+                   "corrupt or truncated PNG: " + detail::Printable(source.error, 120)));
   }
   cv::Mat1b mask(static_cast<int>(h.height), static_cast<int>(h.width));
   for (int v = 0; v < mask.rows; ++v) {

@@ -52,11 +52,14 @@ std::optional<MeshFormat> MeshFormatFromName(std::string_view name) {
 
 const char* MeshFileExtension(MeshFormat format) {
   switch (format) {
-    case MeshFormat::kObj: return "obj";
+    case MeshFormat::kObj:
+      return "obj";
     case MeshFormat::kPlyAscii:
-    case MeshFormat::kPlyBinary: return "ply";
+    case MeshFormat::kPlyBinary:
+      return "ply";
     case MeshFormat::kStlAscii:
-    case MeshFormat::kStlBinary: return "stl";
+    case MeshFormat::kStlBinary:
+      return "stl";
   }
   return "obj";
 }

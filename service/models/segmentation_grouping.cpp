@@ -57,9 +57,8 @@ std::vector<Peak> FindPeaks(const cv::Mat1f& centre, const GroupingParams& p, do
 segmentation::InstanceMasks GroupInstances(const HeadMaps& maps, cv::Size output_size,
                                            const GroupingParams& p, cv::Mat1f* foreground_out) {
   const cv::Size model = maps.foreground.size();
-  if (maps.foreground.empty() || maps.centre.size() != model ||
-      maps.offset_u_px.size() != model || maps.offset_v_px.size() != model ||
-      output_size.width <= 0 || output_size.height <= 0) {
+  if (maps.foreground.empty() || maps.centre.size() != model || maps.offset_u_px.size() != model ||
+      maps.offset_v_px.size() != model || output_size.width <= 0 || output_size.height <= 0) {
     throw std::invalid_argument("GroupInstances: empty or mismatched head maps");
   }
   const double sx = static_cast<double>(output_size.width) / model.width;
@@ -87,7 +86,8 @@ segmentation::InstanceMasks GroupInstances(const HeadMaps& maps, cv::Size output
         double best = std::numeric_limits<double>::infinity();
         std::size_t best_k = 0;
         for (std::size_t k = 0; k < peaks.size(); ++k) {
-          const double d2 = (peaks[k].u - tu) * (peaks[k].u - tu) + (peaks[k].v - tv) * (peaks[k].v - tv);
+          const double d2 =
+              (peaks[k].u - tu) * (peaks[k].u - tu) + (peaks[k].v - tv) * (peaks[k].v - tv);
           if (d2 < best) {
             best = d2;
             best_k = k;

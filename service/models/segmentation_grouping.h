@@ -33,7 +33,8 @@ struct HeadMaps {
 /// Instances at `output_size` (the input image's size; the heads are resized bilinearly and the
 /// offsets scaled). Score of an instance = its peak's heatmap value x the mean foreground
 /// probability of its pixels. `foreground_out`, when given, receives the foreground probability at
-/// output_size. Deterministic. @throws std::invalid_argument if the maps differ in size or are empty.
+/// output_size. Deterministic. @throws std::invalid_argument if the maps differ in size or are
+/// empty.
 segmentation::InstanceMasks GroupInstances(const HeadMaps& maps, cv::Size output_size,
                                            const GroupingParams& params = {},
                                            cv::Mat1f* foreground_out = nullptr);

@@ -1,7 +1,8 @@
 #pragma once
-/// Instance segmentation and deformability from one depth image (thesis ch. 5; docs/segmentation.md):
-/// a U-Net with four heads (foreground, instance-centre heatmap, centre offsets, deformability)
-/// whose centre votes are grouped into instances. The header does not include libtorch.
+/// Instance segmentation and deformability from one depth image (thesis ch. 5;
+/// docs/segmentation.md): a U-Net with four heads (foreground, instance-centre heatmap, centre
+/// offsets, deformability) whose centre votes are grouped into instances. The header does not
+/// include libtorch.
 ///
 ///   auto model = models::SegmentationModel::Load("models/segmentation.pt");
 ///   if (!model.ok()) return model.error();
@@ -33,9 +34,10 @@ class SegmentationModel {
   static core::Result<SegmentationModel> Load(const std::filesystem::path& path);
 
   /// Segments a preprocessed scene (core::Preprocess). Outputs have the scene's size.
-  SegmentationOutput SegmentScene(const core::Scene& scene, const GroupingParams& grouping = {}) const;
+  SegmentationOutput SegmentScene(const core::Scene& scene,
+                                  const GroupingParams& grouping = {}) const;
 
-  int input_width() const;   ///< model input, pixels
+  int input_width() const;  ///< model input, pixels
   int input_height() const;
   std::int64_t parameter_count() const;
   const std::string& description() const;  ///< the config line stored in the file

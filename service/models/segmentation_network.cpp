@@ -45,7 +45,8 @@ SegmentationNetImpl::SegmentationNetImpl(const SegmentationNetConfig& c) {
   up_norm_.resize(static_cast<std::size_t>(c.levels), torch::nn::GroupNorm{nullptr});
   for (int i = c.levels - 1; i >= 0; --i) {
     const int in = Channels(c, i + 1) + Channels(c, i);
-    up_[static_cast<std::size_t>(i)] = register_module("up" + std::to_string(i), Conv3(in, Channels(c, i)));
+    up_[static_cast<std::size_t>(i)] =
+        register_module("up" + std::to_string(i), Conv3(in, Channels(c, i)));
     up_norm_[static_cast<std::size_t>(i)] =
         register_module("up_norm" + std::to_string(i), Norm(Channels(c, i)));
   }
@@ -79,12 +80,12 @@ void SaveSegmentationNet(const std::filesystem::path& path, SegmentationNet& net
                          const SegmentationNetConfig& c, double height_range_m) {
   torch::serialize::OutputArchive archive;
   archive.write("kind", KindMarker());
-  archive.write("config", torch::tensor({kSegmentationFormatVersion,
-                                         static_cast<std::int64_t>(c.width),
-                                         static_cast<std::int64_t>(c.height),
-                                         static_cast<std::int64_t>(c.base_channels),
-                                         static_cast<std::int64_t>(c.levels)},
-                                        torch::kInt64));
+  archive.write("config",
+                torch::tensor({kSegmentationFormatVersion, static_cast<std::int64_t>(c.width),
+                               static_cast<std::int64_t>(c.height),
+                               static_cast<std::int64_t>(c.base_channels),
+                               static_cast<std::int64_t>(c.levels)},
+                              torch::kInt64));
   archive.write("height_range_m", torch::tensor({height_range_m}, torch::kFloat64));
   torch::serialize::OutputArchive weights;
   net->save(weights);
@@ -97,8 +98,7 @@ void SaveSegmentationNet(const std::filesystem::path& path, SegmentationNet& net
 core::Result<LoadedSegmentationNet> LoadSegmentationNet(const std::filesystem::path& path) {
   auto fail = [&](const std::string& why) {
     return core::MakeError(core::ErrorCode::kUnprocessable,
-                           "cannot read segmentation model " + path.string() + ": " + why,
-                           "model");
+                           "cannot read segmentation model " + path.string() + ": " + why, "model");
   };
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {

@@ -19,11 +19,17 @@ namespace softgrasp::models {
 inline constexpr float kOffsetScalePx = 16.0f;
 
 /// Output channels of SegmentationNet.
-enum SegmentationHead : int { kHeadForeground = 0, kHeadCentre = 1, kHeadOffsetU = 2,
-                              kHeadOffsetV = 3, kHeadDeformability = 4, kHeadCount = 5 };
+enum SegmentationHead : int {
+  kHeadForeground = 0,
+  kHeadCentre = 1,
+  kHeadOffsetU = 2,
+  kHeadOffsetV = 3,
+  kHeadDeformability = 4,
+  kHeadCount = 5
+};
 
 struct SegmentationNetConfig {
-  int width = 320;         ///< model input width, pixels (divisible by 2^levels)
+  int width = 320;  ///< model input width, pixels (divisible by 2^levels)
   int height = 240;
   int base_channels = 16;  ///< channels at full resolution; doubled per level up to 8x
   int levels = 4;          ///< stride-2 encoder levels

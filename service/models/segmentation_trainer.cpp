@@ -29,11 +29,11 @@ struct State {
 };
 
 torch::Tensor ConfigTensor(const SegmentationNetConfig& c) {
-  return torch::tensor({kSegmentationFormatVersion, static_cast<std::int64_t>(c.width),
-                        static_cast<std::int64_t>(c.height),
-                        static_cast<std::int64_t>(c.base_channels),
-                        static_cast<std::int64_t>(c.levels)},
-                       torch::kInt64);
+  return torch::tensor(
+      {kSegmentationFormatVersion, static_cast<std::int64_t>(c.width),
+       static_cast<std::int64_t>(c.height), static_cast<std::int64_t>(c.base_channels),
+       static_cast<std::int64_t>(c.levels)},
+      torch::kInt64);
 }
 
 constexpr int kHistoryColumns = 7;
@@ -104,16 +104,16 @@ core::Result<int> LoadCheckpoint(const std::filesystem::path& path, State& s,
   } catch (const std::exception& e) {
     std::string what = e.what();
     if (const auto nl = what.find('\n'); nl != std::string::npos) what.resize(nl);
-    return MakeError(ErrorCode::kUnprocessable,
-                     "cannot resume from " + path.string() + ": " + what, "resume");
+    return MakeError(ErrorCode::kUnprocessable, "cannot resume from " + path.string() + ": " + what,
+                     "resume");
   }
 }
 
 double LearningRate(const SegmentationTrainOptions& o, int step) {
   constexpr int kWarmup = 100;
   if (step <= kWarmup) return o.learning_rate * step / kWarmup;
-  const double t = std::clamp(static_cast<double>(step - kWarmup) / std::max(1, o.steps - kWarmup),
-                              0.0, 1.0);
+  const double t =
+      std::clamp(static_cast<double>(step - kWarmup) / std::max(1, o.steps - kWarmup), 0.0, 1.0);
   return o.learning_rate * (0.05 + 0.95 * 0.5 * (1.0 + std::cos(std::numbers::pi * t)));
 }
 
@@ -168,7 +168,8 @@ Batch MakeBatch(const SegmentationSet& set, int batch, std::uint64_t seed, int s
     }
     const SegmentationTargets t = MakeSegmentationTargets(labels);
     auto copy = [&](const cv::Mat1f& m, torch::Tensor& dst, int channel, int channels) {
-      std::copy_n(m.ptr<float>(), pixels, dst.data_ptr<float>() + (k * channels + channel) * pixels);
+      std::copy_n(m.ptr<float>(), pixels,
+                  dst.data_ptr<float>() + (k * channels + channel) * pixels);
     };
     copy(t.foreground, b.foreground, 0, 1);
     copy(t.centre, b.centre, 0, 1);
@@ -194,8 +195,8 @@ core::Result<SegmentationSet> BuildSegmentationSet(const std::vector<SceneDatase
   double object_sum = 0, object_count = 0;
   int done = 0;
   for (const auto& dataset : datasets) {
-    const int n = max_scenes_per_set > 0 ? std::min(max_scenes_per_set, dataset.size())
-                                         : dataset.size();
+    const int n =
+        max_scenes_per_set > 0 ? std::min(max_scenes_per_set, dataset.size()) : dataset.size();
     for (int i = 0; i < n; ++i) {
       auto sample = dataset.Load(i);
       if (!sample.ok()) return sample.error();
@@ -212,7 +213,8 @@ core::Result<SegmentationSet> BuildSegmentationSet(const std::vector<SceneDatase
       const cv::Mat1f& stiffness = sample.value().stiffness;
       for (int r = 0; r < def_full.rows; ++r) {
         for (int c = 0; c < def_full.cols; ++c) {
-          if (labels_full(r, c) > 0) def_full(r, c) = 1.0f - std::clamp(stiffness(r, c), 0.0f, 1.0f);
+          if (labels_full(r, c) > 0)
+            def_full(r, c) = 1.0f - std::clamp(stiffness(r, c), 0.0f, 1.0f);
         }
       }
       cv::Mat1f def;
@@ -274,11 +276,13 @@ SegmentationTargets MakeSegmentationTargets(const cv::Mat1w& labels, double sigm
     if (n[id] == 0) continue;
     su[id] /= n[id];
     sv[id] /= n[id];
-    const int cu = static_cast<int>(std::lround(su[id])), cv_ = static_cast<int>(std::lround(sv[id]));
+    const int cu = static_cast<int>(std::lround(su[id])),
+              cv_ = static_cast<int>(std::lround(sv[id]));
     for (int r = std::max(0, cv_ - reach); r <= std::min(h - 1, cv_ + reach); ++r) {
       for (int c = std::max(0, cu - reach); c <= std::min(w - 1, cu + reach); ++c) {
         const double d2 = (c - su[id]) * (c - su[id]) + (r - sv[id]) * (r - sv[id]);
-        t.centre(r, c) = std::max(t.centre(r, c), static_cast<float>(std::exp(-d2 / (2 * sigma * sigma))));
+        t.centre(r, c) =
+            std::max(t.centre(r, c), static_cast<float>(std::exp(-d2 / (2 * sigma * sigma))));
       }
     }
   }
@@ -330,8 +334,8 @@ core::Result<SegmentationTrainReport> TrainSegmentation(const SegmentationTrainO
     }
     s.opt.zero_grad();
     const torch::Tensor y = s.net->forward(b.input);
-    const torch::Tensor fg_loss = torch::binary_cross_entropy_with_logits(
-        y.narrow(1, kHeadForeground, 1), b.foreground);
+    const torch::Tensor fg_loss =
+        torch::binary_cross_entropy_with_logits(y.narrow(1, kHeadForeground, 1), b.foreground);
     const torch::Tensor centre_loss = torch::mse_loss(y.narrow(1, kHeadCentre, 1), b.centre);
     const torch::Tensor offset_loss =
         ((y.narrow(1, kHeadOffsetU, 2) - b.offset).abs() * b.object_mask).sum() /

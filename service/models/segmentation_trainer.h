@@ -22,7 +22,7 @@ struct SegmentationSet {
   std::vector<std::vector<std::int16_t>> inputs;
   std::vector<std::vector<std::uint16_t>> labels;
   std::vector<std::vector<std::uint8_t>> deformability;
-  int skipped = 0;                ///< scenes whose depth could not be preprocessed
+  int skipped = 0;                       ///< scenes whose depth could not be preprocessed
   double mean_object_deformability = 0;  ///< over object pixels of every scene (a baseline)
   int count() const { return static_cast<int>(inputs.size()); }
 };
@@ -48,7 +48,7 @@ struct SegmentationTrainOptions {
   int steps = 4000;
   std::uint64_t seed = 1;
   int batch = 4;
-  double learning_rate = 1e-3;  ///< Adam; 100-step warm-up, then cosine decay to 5 % at `steps`
+  double learning_rate = 1e-3;   ///< Adam; 100-step warm-up, then cosine decay to 5 % at `steps`
   double centre_weight = 200.0;  ///< on the heatmap MSE (Panoptic-DeepLab's weight)
   double offset_weight = 1.0;    ///< on the offset L1 (offsets / kOffsetScalePx)
   double ssim_weight = 1.0;      ///< on 1 - SSIM of the deformability map (plus its L1 x 1)

@@ -291,9 +291,8 @@ void WriteLossCurve(const std::vector<LossRecord>& history, double lambda_l1,
     }
   }
   std::vector<int> steps;
-  std::vector<LossSeries> series = {{"lambda*L1", {200, 60, 20}, {}},
-                                    {"G GAN", {30, 30, 220}, {}},
-                                    {"D", {40, 160, 40}, {}}};
+  std::vector<LossSeries> series = {
+      {"lambda*L1", {200, 60, 20}, {}}, {"G GAN", {30, 30, 220}, {}}, {"D", {40, 160, 40}, {}}};
   for (const LossRecord& r : history) {
     steps.push_back(r.step);
     series[0].values.push_back(lambda_l1 * r.g_l1);

@@ -18,7 +18,7 @@ struct TrainOptions {
   int steps = 6000;           ///< total optimisation steps (a resumed run stops here too)
   std::uint64_t seed = 1;
   int batch = 4;
-  double lambda_l1 = 100.0;     ///< pix2pix default
+  double lambda_l1 = 100.0;  ///< pix2pix default
   /// Object pixels (target > 0) weigh 1 + object_weight in the L1 term, background 1 (the mean
   /// is taken with these weights, so the term stays on the [0, 1] scale). Most pixels are
   /// background; a weight puts the generator's effort where grasps land. 0 = plain pix2pix.

@@ -419,16 +419,15 @@ http::Response Segmentation(const http::Request& request, const config::ServiceC
       for (const auto& info : infos) list.push_back(InstanceToJson(info));
       json camera = CameraToJson(up.camera);
       camera["source"] = up.camera_source;
-      json timing = {{"decode", decode_ms},
-                     {"preprocess", preprocess_ms},
-                     {"segment", found.milliseconds}};
+      json timing = {
+          {"decode", decode_ms}, {"preprocess", preprocess_ms}, {"segment", found.milliseconds}};
       if (stiffness_ms > 0) timing["stiffness"] = stiffness_ms;
       timing["describe"] = describe_ms;
       timing["total"] = MillisecondsSince(start);
       const json body = {
           {"method", segmentation::MethodName(found.method)},
-          {"segmentation_model", found.method == segmentation::Method::kModel
-                                     ? json("segmentation") : json()},
+          {"segmentation_model",
+           found.method == segmentation::Method::kModel ? json("segmentation") : json()},
           {"stiffness_model", stiffness_model ? json("pix2stiffness") : json()},
           {"image",
            {{"width", up.depth.width()},
@@ -571,9 +570,12 @@ http::Response ErrorToResponse(const core::Error& error) {
                              error.message, error.field);
 }
 
-http::Router BuildRouter(const config::ServiceConfig& config) { return BuildRouter(config, nullptr); }
+http::Router BuildRouter(const config::ServiceConfig& config) {
+  return BuildRouter(config, nullptr);
+}
 
-http::Router BuildRouter(const config::ServiceConfig& config, std::shared_ptr<robot::CommandTracker> robot,
+http::Router BuildRouter(const config::ServiceConfig& config,
+                         std::shared_ptr<robot::CommandTracker> robot,
                          std::shared_ptr<const models::StiffnessModel> stiffness_model,
                          std::shared_ptr<const models::SegmentationModel> segmentation_model) {
   const Models models{std::move(stiffness_model), std::move(segmentation_model)};
@@ -594,9 +596,8 @@ http::Router BuildRouter(const config::ServiceConfig& config, std::shared_ptr<ro
   router.Add("POST", "/v1/stiffness", [config, models](const http::Request& r) {
     return Stiffness(r, config, models.stiffness.get());
   });
-  router.Add("POST", "/v1/segmentation", [config, models](const http::Request& r) {
-    return Segmentation(r, config, models);
-  });
+  router.Add("POST", "/v1/segmentation",
+             [config, models](const http::Request& r) { return Segmentation(r, config, models); });
   router.Add("POST", "/v1/fractals",
              [config](const http::Request& r) { return Fractals(r, config); });
 

@@ -3,12 +3,12 @@
 
 #include <memory>
 
+#include "service/config/config.h"
 #include "service/core/status.h"
 #include "service/http/message.h"
 #include "service/http/router.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
-#include "service/config/config.h"
 #include "service/robot/command_tracker.h"
 
 namespace softgrasp::rest {

@@ -24,8 +24,8 @@ struct RequestFields {
 };
 
 bool IsRawDepthContentType(std::string_view type) {
-  for (std::string_view t : {"application/octet-stream", "application/x-npy", "image/png",
-                             "image/tiff"}) {
+  for (std::string_view t :
+       {"application/octet-stream", "application/x-npy", "image/png", "image/tiff"}) {
     if (type.substr(0, t.size()) == t) return true;
   }
   return false;
@@ -58,7 +58,8 @@ core::Result<RequestFields> CollectFields(const http::Request& request) {
     return MakeError(ErrorCode::kUnsupportedMediaType,
                      "send the depth image as multipart/form-data (part 'depth') or as a raw body "
                      "with Content-Type application/octet-stream, application/x-npy, image/png "
-                     "or image/tiff; got '" + content_type + "'",
+                     "or image/tiff; got '" +
+                         content_type + "'",
                      "Content-Type");
   }
   if (!fields.depth_bytes || fields.depth_bytes->empty()) {
@@ -103,33 +104,73 @@ NumericOption Overrides(const char* section, const char* key, double scale, bool
 
 const std::map<std::string, NumericOption>& NumericOptions() {
   static const std::map<std::string, NumericOption> options = {
-      {"opening_stroke_mm", Overrides("gripper", "opening_stroke_mm", 1, false, [](GraspRequest& r, double v) { r.plan.gripper.opening_stroke_m = core::MetresFromMm(v); })},
-      {"finger_width_mm", Overrides("gripper", "finger_width_mm", 1, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_width_m = core::MetresFromMm(v); })},
-      {"finger_thickness_mm", Overrides("gripper", "finger_thickness_mm", 1, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_thickness_m = core::MetresFromMm(v); })},
-      {"finger_length_mm", Overrides("gripper", "finger_length_mm", 1, false, [](GraspRequest& r, double v) { r.plan.gripper.finger_length_m = core::MetresFromMm(v); })},
-      {"top_k", Overrides("fge", "top_k", 1, true, [](GraspRequest& r, double v) { r.plan.fge.top_k = static_cast<int>(v); })},
-      {"num_angles", Overrides("fge", "num_angles", 1, true, [](GraspRequest& r, double v) { r.plan.fge.num_angles = static_cast<int>(v); })},
-      {"num_height_steps", Overrides("fge", "num_height_steps", 1, true, [](GraspRequest& r, double v) { r.plan.fge.num_height_steps = static_cast<int>(v); })},
-      {"height_step_mm", Overrides("fge", "height_step_m", 1000, false, [](GraspRequest& r, double v) { r.plan.fge.height_step_m = v / 1000.0; })},
-      {"grip_depth_mm", Overrides("fge", "grip_depth_m", 1000, false, [](GraspRequest& r, double v) { r.plan.fge.grip_depth_m = v / 1000.0; })},
-      {"min_depth_m", Overrides("depth", "min_depth_m", 1, false, [](GraspRequest& r, double v) { r.plan.min_depth_m = v; })},
+      {"opening_stroke_mm", Overrides("gripper", "opening_stroke_mm", 1, false,
+                                      [](GraspRequest& r, double v) {
+                                        r.plan.gripper.opening_stroke_m = core::MetresFromMm(v);
+                                      })},
+      {"finger_width_mm", Overrides("gripper", "finger_width_mm", 1, false,
+                                    [](GraspRequest& r, double v) {
+                                      r.plan.gripper.finger_width_m = core::MetresFromMm(v);
+                                    })},
+      {"finger_thickness_mm", Overrides("gripper", "finger_thickness_mm", 1, false,
+                                        [](GraspRequest& r, double v) {
+                                          r.plan.gripper.finger_thickness_m = core::MetresFromMm(v);
+                                        })},
+      {"finger_length_mm", Overrides("gripper", "finger_length_mm", 1, false,
+                                     [](GraspRequest& r, double v) {
+                                       r.plan.gripper.finger_length_m = core::MetresFromMm(v);
+                                     })},
+      {"top_k",
+       Overrides("fge", "top_k", 1, true,
+                 [](GraspRequest& r, double v) { r.plan.fge.top_k = static_cast<int>(v); })},
+      {"num_angles",
+       Overrides("fge", "num_angles", 1, true,
+                 [](GraspRequest& r, double v) { r.plan.fge.num_angles = static_cast<int>(v); })},
+      {"num_height_steps", Overrides("fge", "num_height_steps", 1, true,
+                                     [](GraspRequest& r, double v) {
+                                       r.plan.fge.num_height_steps = static_cast<int>(v);
+                                     })},
+      {"height_step_mm",
+       Overrides("fge", "height_step_m", 1000, false,
+                 [](GraspRequest& r, double v) { r.plan.fge.height_step_m = v / 1000.0; })},
+      {"grip_depth_mm",
+       Overrides("fge", "grip_depth_m", 1000, false,
+                 [](GraspRequest& r, double v) { r.plan.fge.grip_depth_m = v / 1000.0; })},
+      {"min_depth_m", Overrides("depth", "min_depth_m", 1, false,
+                                [](GraspRequest& r, double v) { r.plan.min_depth_m = v; })},
       // strategy=deformability (docs/deformability.md): Algorithm 1's K, L, M, R and the rules
       // for partially deformable objects and soft obstacles.
-      {"min_target_area_px", {0, 1e6, false, [](GraspRequest& r, double v) { r.plan.deformability.min_target_area_px = v; }}},
-      {"slice_step_mm", {1, 200, false, [](GraspRequest& r, double v) { r.plan.deformability.slice_step_m = v / 1000.0; }}},
-      {"num_slices", {1, 20, true, [](GraspRequest& r, double v) { r.plan.deformability.num_slices = static_cast<int>(v); }}},
-      {"min_score", {0, 1, false, [](GraspRequest& r, double v) { r.plan.deformability.min_score = v; }}},
-      {"stiff_part_fraction", {0, 1, false, [](GraspRequest& r, double v) { r.plan.deformability.stiff_part_fraction = v; }}},
-      {"soft_obstacle_threshold", {0, 2, false, [](GraspRequest& r, double v) { r.plan.deformability.soft_obstacle_threshold = v; }}},
-      {"max_press_depth_mm", {0, 200, false, [](GraspRequest& r, double v) { r.plan.deformability.max_press_depth_m = v / 1000.0; }}},
-      {"max_targets", {1, 64, true, [](GraspRequest& r, double v) { r.plan.deformability.max_targets = static_cast<int>(v); }}},
+      {"min_target_area_px",
+       {0, 1e6, false,
+        [](GraspRequest& r, double v) { r.plan.deformability.min_target_area_px = v; }}},
+      {"slice_step_mm",
+       {1, 200, false,
+        [](GraspRequest& r, double v) { r.plan.deformability.slice_step_m = v / 1000.0; }}},
+      {"num_slices",
+       {1, 20, true,
+        [](GraspRequest& r, double v) { r.plan.deformability.num_slices = static_cast<int>(v); }}},
+      {"min_score",
+       {0, 1, false, [](GraspRequest& r, double v) { r.plan.deformability.min_score = v; }}},
+      {"stiff_part_fraction",
+       {0, 1, false,
+        [](GraspRequest& r, double v) { r.plan.deformability.stiff_part_fraction = v; }}},
+      {"soft_obstacle_threshold",
+       {0, 2, false,
+        [](GraspRequest& r, double v) { r.plan.deformability.soft_obstacle_threshold = v; }}},
+      {"max_press_depth_mm",
+       {0, 200, false,
+        [](GraspRequest& r, double v) { r.plan.deformability.max_press_depth_m = v / 1000.0; }}},
+      {"max_targets",
+       {1, 64, true,
+        [](GraspRequest& r, double v) { r.plan.deformability.max_targets = static_cast<int>(v); }}},
   };
   return options;
 }
 
 constexpr const char* kIntrinsicKeys[] = {"fx", "fy", "cx", "cy"};
 
-core::Result<core::Camera> ResolveCamera(const RequestFields& fields, const config::ServiceConfig& config,
+core::Result<core::Camera> ResolveCamera(const RequestFields& fields,
+                                         const config::ServiceConfig& config,
                                          const core::DepthImage& depth, std::string* source) {
   core::Camera camera = config.default_camera;
   *source = "default";
@@ -168,8 +209,7 @@ core::Result<core::Camera> ResolveCamera(const RequestFields& fields, const conf
                          std::to_string(depth.width()) + "x" + std::to_string(depth.height()),
                      "intrinsics");
   }
-  if (*source == "default" &&
-      (camera.width != depth.width() || camera.height != depth.height())) {
+  if (*source == "default" && (camera.width != depth.width() || camera.height != depth.height())) {
     // Same focal lengths, principal point at the centre of this image.
     camera.cx = (depth.width() - 1) / 2.0;
     camera.cy = (depth.height() - 1) / 2.0;
@@ -188,7 +228,8 @@ bool IsUploadField(const std::string& key) {
   return false;
 }
 
-core::Result<DepthUpload> DecodeUpload(const RequestFields& fields, const config::ServiceConfig& config) {
+core::Result<DepthUpload> DecodeUpload(const RequestFields& fields,
+                                       const config::ServiceConfig& config) {
   double png_unit_m = config.png_unit_m;
   if (const auto unit = fields.values.find("png_unit_m"); unit != fields.values.end()) {
     auto v = ParseNumber("png_unit_m", unit->second, 1e-6, 1.0);
@@ -268,8 +309,7 @@ core::Result<cv::Mat1w> DecodeLabels(const std::string& bytes, const config::Ser
   if (!counts.ok()) {
     core::Error e = relabel(counts.error());
     if (e.message.find("16-bit") != std::string::npos) {
-      e.message = "labels must be a 16-bit PNG (POST /v1/segmentation?format=labels): " +
-                  e.message;
+      e.message = "labels must be a 16-bit PNG (POST /v1/segmentation?format=labels): " + e.message;
     }
     return e;
   }
@@ -293,7 +333,8 @@ core::Result<std::vector<double>> ParseOpeningFractions(const std::string& text)
   const auto bad = [&](const std::string& why) {
     return MakeError(ErrorCode::kInvalidArgument,
                      "opening_fractions must be up to 8 comma-separated fractions of the stroke "
-                     "in (0, 1], increasing (e.g. 0.5,0.75,1): " + why + ", got '" + text + "'",
+                     "in (0, 1], increasing (e.g. 0.5,0.75,1): " +
+                         why + ", got '" + text + "'",
                      "opening_fractions");
   };
   std::vector<double> out;
@@ -346,9 +387,8 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
 
   for (const auto& [key, text] : fields.values) {
     if (key == "format" || key == "strategy" || key == "draw" || key == "overlay" ||
-        key == "mean_stiffness" || key == "instances" || key == "segmentation" ||
-        key == "target" || key == "target_policy" || key == "opening_fractions" ||
-        IsUploadField(key)) {
+        key == "mean_stiffness" || key == "instances" || key == "segmentation" || key == "target" ||
+        key == "target_policy" || key == "opening_fractions" || IsUploadField(key)) {
       continue;
     }
     const auto option = NumericOptions().find(key);
@@ -368,7 +408,8 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   if (auto why = engine::Unserved(models, plan.strategy)) return *why;
   auto overlay = ParseChoice<OverlayBackground, 3>(
       fields, "overlay", OverlayBackground::kDepth, {"depth", "stiffness", "deformability"},
-      {OverlayBackground::kDepth, OverlayBackground::kStiffness, OverlayBackground::kDeformability});
+      {OverlayBackground::kDepth, OverlayBackground::kStiffness,
+       OverlayBackground::kDeformability});
   if (!overlay.ok()) return overlay.error();
   out.overlay = overlay.value();
   if (out.overlay == OverlayBackground::kDeformability && !models.segmentation) {
@@ -402,8 +443,8 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   auto draw = ParseChoice<bool, 2>(fields, "draw", true, {"grasps", "none"}, {true, false});
   if (!draw.ok()) return draw.error();
   out.draw_grasps = draw.value();
-  auto report = ParseChoice<bool, 2>(fields, "mean_stiffness", false, {"true", "false"},
-                                     {true, false});
+  auto report =
+      ParseChoice<bool, 2>(fields, "mean_stiffness", false, {"true", "false"}, {true, false});
   if (!report.ok()) return report.error();
   plan.mean_stiffness = report.value();
   if (plan.mean_stiffness && !models.stiffness) {
@@ -428,8 +469,8 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
     plan.region_of_interest = std::move(mask).value();
   }
 
-  auto instances = ParseChoice<bool, 2>(fields, "instances", false, {"true", "false"},
-                                        {true, false});
+  auto instances =
+      ParseChoice<bool, 2>(fields, "instances", false, {"true", "false"}, {true, false});
   if (!instances.ok()) return instances.error();
   plan.report_instances = instances.value();
   auto method = ParseChoice<std::optional<segmentation::Method>, 2>(
@@ -440,10 +481,10 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
     auto id = ParseNumber("target", target->second, 1, 65535);
     if (!id.ok()) return id.error();
     if (id.value() != std::floor(id.value())) {
-      return MakeError(ErrorCode::kInvalidArgument,
-                       "target must be an instance id (an integer from 1), got '" +
-                           target->second + "'",
-                       "target");
+      return MakeError(
+          ErrorCode::kInvalidArgument,
+          "target must be an instance id (an integer from 1), got '" + target->second + "'",
+          "target");
     }
     plan.target_id = static_cast<int>(id.value());
   }
@@ -478,10 +519,10 @@ core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& reques
                      std::string("unknown field '") + part + "' (it applies to /v1/grasps)", part);
   }
   StiffnessRequest out;
-  auto format = ParseChoice<StiffnessFormat, 4>(
-      fields, "format", StiffnessFormat::kPng8, {"png8", "png16", "npy", "color"},
-      {StiffnessFormat::kPng8, StiffnessFormat::kPng16, StiffnessFormat::kNpy,
-       StiffnessFormat::kColor});
+  auto format = ParseChoice<StiffnessFormat, 4>(fields, "format", StiffnessFormat::kPng8,
+                                                {"png8", "png16", "npy", "color"},
+                                                {StiffnessFormat::kPng8, StiffnessFormat::kPng16,
+                                                 StiffnessFormat::kNpy, StiffnessFormat::kColor});
   if (!format.ok()) return format.error();
   out.format = format.value();
   auto upload = DecodeUpload(fields, config);
@@ -516,15 +557,15 @@ core::Result<SegmentationRequest> ParseSegmentationRequest(const http::Request& 
        SegmentationFormat::kDeformability});
   if (!format.ok()) return format.error();
   out.format = format.value();
-  auto encoding = ParseChoice<StiffnessFormat, 4>(
-      fields, "encoding", StiffnessFormat::kPng8, {"png8", "png16", "npy", "color"},
-      {StiffnessFormat::kPng8, StiffnessFormat::kPng16, StiffnessFormat::kNpy,
-       StiffnessFormat::kColor});
+  auto encoding = ParseChoice<StiffnessFormat, 4>(fields, "encoding", StiffnessFormat::kPng8,
+                                                  {"png8", "png16", "npy", "color"},
+                                                  {StiffnessFormat::kPng8, StiffnessFormat::kPng16,
+                                                   StiffnessFormat::kNpy, StiffnessFormat::kColor});
   if (!encoding.ok()) return encoding.error();
   out.encoding = encoding.value();
   if (fields.values.count("encoding") && out.format != SegmentationFormat::kDeformability) {
-    return MakeError(ErrorCode::kInvalidArgument,
-                     "encoding applies to format=deformability only", "encoding");
+    return MakeError(ErrorCode::kInvalidArgument, "encoding applies to format=deformability only",
+                     "encoding");
   }
   if (out.method == segmentation::Method::kPcl &&
       out.format == SegmentationFormat::kDeformability) {

@@ -6,12 +6,12 @@
 #include <optional>
 #include <string>
 
+#include "service/config/config.h"
 #include "service/core/depth.h"
 #include "service/core/status.h"
 #include "service/engine/engine.h"
 #include "service/http/message.h"
 #include "service/io/depth_codec.h"
-#include "service/config/config.h"
 #include "service/segmentation/instances.h"
 
 namespace softgrasp::rest {

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-
 #include <nlohmann/json.hpp>
 
 namespace softgrasp::rest {
@@ -25,13 +24,15 @@ core::Result<long long> Integer(const json& v, const std::string& field, long lo
   }
   const double x = v.get<double>();
   if (x < static_cast<double>(min) || x > static_cast<double>(max)) {
-    return FieldError(field, "must be in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
+    return FieldError(field,
+                      "must be in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
   }
   return static_cast<long long>(x);
 }
 
 core::Result<double> Number(const json& v, const std::string& field) {
-  if (!v.is_number() || !std::isfinite(v.get<double>())) return FieldError(field, "must be a number");
+  if (!v.is_number() || !std::isfinite(v.get<double>()))
+    return FieldError(field, "must be a number");
   return v.get<double>();
 }
 
@@ -97,7 +98,8 @@ core::Result<FractalRequest> ParseFractalRequest(std::string_view body,
   for (const auto& [key, value] : doc.items()) {
     core::Result<bool> applied = true;
     if (key == "seed") {
-      if (!value.is_number_unsigned() && !(value.is_number_integer() && value.get<long long>() >= 0)) {
+      if (!value.is_number_unsigned() &&
+          !(value.is_number_integer() && value.get<long long>() >= 0)) {
         return FieldError("seed", "must be a non-negative integer");
       }
       p.seed = value.get<std::uint64_t>();
@@ -124,7 +126,8 @@ core::Result<FractalRequest> ParseFractalRequest(std::string_view body,
       if (!f.ok()) return f.error();
       out.format = f.value();
     } else {
-      return FieldError(key, "is not a known key (seed, maps, points, sigma, alpha, scale, format)");
+      return FieldError(key,
+                        "is not a known key (seed, maps, points, sigma, alpha, scale, format)");
     }
     if (!applied.ok()) return applied.error();
   }
@@ -135,7 +138,8 @@ core::Result<FractalRequest> ParseFractalRequest(std::string_view body,
 std::string FractalFileName(const FractalRequest& request) {
   char alpha[32];
   std::snprintf(alpha, sizeof alpha, "%g", request.params.alpha);
-  return "fractal-seed" + std::to_string(request.params.seed) + "-alpha" + alpha + "." + mesh::MeshFileExtension(request.format);
+  return "fractal-seed" + std::to_string(request.params.seed) + "-alpha" + alpha + "." +
+         mesh::MeshFileExtension(request.format);
 }
 
 }  // namespace softgrasp::rest

@@ -4,16 +4,16 @@
 #include <string>
 #include <string_view>
 
+#include "service/config/config.h"
 #include "service/core/status.h"
 #include "service/mesh/fractal.h"
 #include "service/mesh/mesh_io.h"
-#include "service/config/config.h"
 
 namespace softgrasp::rest {
 
 struct FractalRequest {
   mesh::FractalParams params;
-  bool stats_only = false;                     ///< format "json": statistics instead of a file
+  bool stats_only = false;  ///< format "json": statistics instead of a file
   mesh::MeshFormat format = mesh::MeshFormat::kObj;
 };
 

@@ -3,6 +3,7 @@
 #include <cctype>
 #include <nlohmann/json.hpp>
 
+#include "service/core/quaternion.h"
 #include "service/rest/api.h"
 #include "service/rest/robot_request.h"
 
@@ -34,9 +35,7 @@ json RecordJson(const robot::CommandRecord& r) {
       {"command",
        {{"frame_id", c.frame_id},
         {"position_m", c.position_m},
-        {"orientation_wxyz",
-         {c.orientation_xyzw[3], c.orientation_xyzw[0], c.orientation_xyzw[1],
-          c.orientation_xyzw[2]}},
+        {"orientation_wxyz", core::WxyzFromXyzw(c.orientation_xyzw)},
         {"opening_m", c.opening_width_m},
         {"force_n", c.closing_force_n},
         {"approach_m", c.approach_m},
@@ -123,7 +122,8 @@ http::Response GetGrasp(const http::Request& request, const config::ServiceConfi
   return CommandResponse(200, *record);
 }
 
-http::Response GetRobots(const config::ServiceConfig& config, const robot::CommandTracker& tracker) {
+http::Response GetRobots(const config::ServiceConfig& config,
+                         const robot::CommandTracker& tracker) {
   json robots = json::array();
   for (const bridge::RobotInfo& r : tracker.Robots()) {
     robots.push_back({{"robot_id", r.status.robot_id},

@@ -8,10 +8,10 @@
 #include <string_view>
 #include <vector>
 
+#include "service/config/config.h"
 #include "service/core/status.h"
 #include "service/http/message.h"
 #include "service/http/router.h"
-#include "service/config/config.h"
 #include "service/robot/command_tracker.h"
 
 namespace softgrasp::rest {
@@ -25,9 +25,9 @@ bool TokenMatches(std::string_view presented, const std::vector<std::string>& to
 core::Result<bridge::Ok> Authorize(const http::Request& request,
                                    const std::vector<std::string>& tokens);
 
-/// Registers the three robot routes. With a null `tracker`, or when config::RobotDisabledReason(config)
-/// says so, every one answers 503 with that reason (the routes stay, so clients and the contract
-/// see them).
+/// Registers the three robot routes. With a null `tracker`, or when
+/// config::RobotDisabledReason(config) says so, every one answers 503 with that reason (the routes
+/// stay, so clients and the contract see them).
 void AddRobotRoutes(http::Router& router, const config::ServiceConfig& config,
                     std::shared_ptr<robot::CommandTracker> tracker);
 

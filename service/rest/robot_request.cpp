@@ -6,6 +6,8 @@
 #include <sstream>
 #include <vector>
 
+#include "service/core/quaternion.h"
+
 namespace softgrasp::rest {
 namespace {
 
@@ -207,14 +209,14 @@ core::Result<RobotGraspRequest> ParseRobotGraspRequest(std::string_view body_tex
   auto wxyz = VectorAt<4>(pose, "orientation_wxyz", "pose.orientation_wxyz");
   if (!wxyz) return wxyz.error();
   const auto& q = wxyz.value();
-  const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  const double norm = core::QuaternionNorm(q);
   if (std::abs(norm - 1.0) > 1e-3) {
     std::ostringstream os;
     os << "must be a unit quaternion (its norm is " << norm << ")";
     return Unusable("pose.orientation_wxyz", os.str());
   }
   c.position_m = position.value();
-  c.orientation_xyzw = {q[1], q[2], q[3], q[0]};
+  c.orientation_xyzw = core::XyzwFromWxyz(q);
 
   // The frame: frame_id, else the pose's own frame, else the camera's.
   std::string pose_frame;

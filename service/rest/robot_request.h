@@ -7,8 +7,8 @@
 #include <string_view>
 
 #include "service/bridge/messages.h"
-#include "service/core/status.h"
 #include "service/config/config.h"
+#include "service/core/status.h"
 
 namespace softgrasp::rest {
 

@@ -6,10 +6,9 @@
 /// them, as false positives, exactly as COCO treats "crowd"/ignored regions.
 
 #include <map>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "service/segmentation/instances.h"
 

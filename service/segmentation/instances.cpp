@@ -99,7 +99,8 @@ std::vector<InstanceInfo> DescribeInstances(const InstanceMasks& masks, const co
   }
   struct Acc {
     int area = 0;
-    int u0 = std::numeric_limits<int>::max(), v0 = std::numeric_limits<int>::max(), u1 = -1, v1 = -1;
+    int u0 = std::numeric_limits<int>::max(), v0 = std::numeric_limits<int>::max(), u1 = -1,
+        v1 = -1;
     double su = 0, sv = 0, sx = 0, sy = 0, sz = 0, top = -std::numeric_limits<double>::infinity();
     double sdef = 0, sstiff = 0;
   };

@@ -4,8 +4,8 @@
 /// See docs/segmentation.md.
 
 #include <array>
-#include <optional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,10 +45,11 @@ struct InstanceInfo {
   int id = 0;
   float score = 0;
   int area_px = 0;
-  cv::Rect bbox_px;                          ///< tight bounding box, pixels
-  std::array<double, 2> centroid_px{0, 0};   ///< mean (u, v) of the mask's pixels
-  std::array<double, 3> centroid_m{0, 0, 0}; ///< mean of the back-projected mask points, camera frame C
-  double top_height_m = 0;                   ///< highest surface above the fitted floor
+  cv::Rect bbox_px;                         ///< tight bounding box, pixels
+  std::array<double, 2> centroid_px{0, 0};  ///< mean (u, v) of the mask's pixels
+  std::array<double, 3> centroid_m{0, 0,
+                                   0};  ///< mean of the back-projected mask points, camera frame C
+  double top_height_m = 0;              ///< highest surface above the fitted floor
   std::optional<double> mean_deformability;  ///< mean of the deformability map in the mask
   std::optional<double> mean_stiffness;      ///< mean of the stiffness map in the mask
 };

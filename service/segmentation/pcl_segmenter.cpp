@@ -16,10 +16,10 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <optional>
-#include <utility>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace softgrasp::segmentation {
@@ -88,12 +88,9 @@ void MarkSteep(const core::Scene& scene, const core::Camera& camera, const PclPa
 
 // RANSAC (pcl::SACSegmentation, fixed seed) for one plane of `model` about `axis` among the
 // samples `pool` (indices into samples.cloud). Returns the plane and its inliers, or nothing.
-std::optional<std::pair<PlaneC, pcl::Indices>> FitPlane(const Samples& samples,
-                                                        const pcl::IndicesPtr& pool,
-                                                        pcl::SacModel model,
-                                                        const Eigen::Vector3f& axis,
-                                                        const PclParams& params, double inlier_m,
-                                                        int min_inliers) {
+std::optional<std::pair<PlaneC, pcl::Indices>> FitPlane(
+    const Samples& samples, const pcl::IndicesPtr& pool, pcl::SacModel model,
+    const Eigen::Vector3f& axis, const PclParams& params, double inlier_m, int min_inliers) {
   if (static_cast<int>(pool->size()) < std::max(3, min_inliers)) return std::nullopt;
   pcl::SACSegmentation<pcl::PointXYZ> sac;  // not `random`: a fixed RNG seed, deterministic
   sac.setOptimizeCoefficients(true);
@@ -187,7 +184,8 @@ std::vector<Wall> FindWalls(const core::Scene& scene, const PclParams& params, d
         ++behind;
       }
     }
-    if (behind > params.wall_max_behind_fraction * static_cast<double>(fit->second.size())) continue;
+    if (behind > params.wall_max_behind_fraction * static_cast<double>(fit->second.size()))
+      continue;
     for (std::size_t i = 0; i < samples.size(); ++i) {
       if (wall.Covers(samples.At(i), params)) used[i] = true;
     }
@@ -412,8 +410,8 @@ core::Result<InstanceMasks> SegmentPcl(const core::Scene& scene, const core::Cam
       if (floor_hull(v, u)) ++on_floor[labels(v, u)];
     }
   }
-  const int border_px = std::max(1, static_cast<int>(std::lround(params.border_touch_px *
-                                                                  std::sqrt(area_scale))));
+  const int border_px =
+      std::max(1, static_cast<int>(std::lround(params.border_touch_px * std::sqrt(area_scale))));
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const std::uint16_t id = labels(v, u);
@@ -430,8 +428,8 @@ core::Result<InstanceMasks> SegmentPcl(const core::Scene& scene, const core::Cam
 
   // 4. Leftovers: steep sides (whose pixels lie further apart than the tolerance), clusters too
   // small to keep and unspread pixels join the adjacent instance they slope down from.
-  const int attach_px = std::max(0, static_cast<int>(std::lround(params.attach_leftovers_px *
-                                                                  std::sqrt(area_scale))));
+  const int attach_px = std::max(
+      0, static_cast<int>(std::lround(params.attach_leftovers_px * std::sqrt(area_scale))));
   if (attach_px > 0) {
     std::vector<cv::Point> frontier, next;
     for (int v = 0; v < h; ++v) {
@@ -440,7 +438,7 @@ core::Result<InstanceMasks> SegmentPcl(const core::Scene& scene, const core::Cam
       }
     }
     const std::array<cv::Point, 4> kSteps{cv::Point(1, 0), cv::Point(-1, 0), cv::Point(0, 1),
-                                              cv::Point(0, -1)};
+                                          cv::Point(0, -1)};
     const float climb_m = static_cast<float>(params.cluster_tolerance_m);
     for (int ring = 0; ring < attach_px && !frontier.empty(); ++ring) {
       next.clear();
@@ -472,7 +470,8 @@ core::Result<InstanceMasks> SegmentPcl(const core::Scene& scene, const core::Cam
     }
     score[id] = InstanceScore(pixels[id], min_px);
   }
-  return Compact(labels, min_px, [&](int old_id) { return score[static_cast<std::size_t>(old_id)]; });
+  return Compact(labels, min_px,
+                 [&](int old_id) { return score[static_cast<std::size_t>(old_id)]; });
 }
 
 }  // namespace softgrasp::segmentation

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <span>
 #include <stdexcept>
@@ -13,7 +14,7 @@
 #include <utility>
 #include <vector>
 
-#include <opencv2/imgproc.hpp>
+#include "service/core/quaternion.h"
 
 namespace softgrasp::sim {
 namespace {
@@ -431,7 +432,8 @@ core::Result<SceneSpec> SceneSpecFromJson(const json& j) {
     std::array<double, 4> xyzw{};
     get(c, "position_m", &position);
     get(c, "quaternion_xyzw", &xyzw);
-    const Eigen::Quaterniond q(xyzw[3], xyzw[0], xyzw[1], xyzw[2]);
+    const core::QuaternionWxyz wxyz = core::WxyzFromXyzw(xyzw);
+    const Eigen::Quaterniond q(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
     if (!(std::abs(q.norm() - 1.0) < 1e-6))
       throw std::invalid_argument("quaternion_xyzw must be a unit quaternion");
     spec.render.world_from_camera = Eigen::Isometry3d::Identity();

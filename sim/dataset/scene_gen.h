@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
-#include <opencv2/core.hpp>
 #include <vector>
 
 #include "service/core/depth.h"
@@ -25,7 +25,8 @@ namespace softgrasp::sim {
 inline constexpr int kMaxObjectsPerScene = 40;
 
 struct SceneSpec {
-  int min_objects = 3;  ///< objects per scene, drawn uniformly in [min, max]; 1..kMaxObjectsPerScene
+  int min_objects =
+      3;  ///< objects per scene, drawn uniformly in [min, max]; 1..kMaxObjectsPerScene
   int max_objects = 8;
   ShapeSplit split = ShapeSplit::kTrain;
   Support support;

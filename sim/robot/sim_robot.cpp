@@ -7,6 +7,8 @@
 #include <sstream>
 #include <utility>
 
+#include "service/core/quaternion.h"
+
 namespace softgrasp::sim {
 namespace {
 
@@ -187,8 +189,8 @@ bridge::GraspResult SimRobot::ExecuteLocked(const bridge::GraspCommand& command)
                                 " m in frame camera is outside the workspace " +
                                 FormatBox(workspace_));
   }
-  const auto& q = command.orientation_xyzw;
-  const Eigen::Quaterniond q_FG = Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized();
+  const core::QuaternionWxyz q = core::WxyzFromXyzw(command.orientation_xyzw);
+  const Eigen::Quaterniond q_FG = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
   const Eigen::Vector3d approach_w = world_from_frame->linear() * (q_FG * Eigen::Vector3d::UnitZ());
   const double tilt_deg = std::acos(std::clamp(-approach_w.z(), -1.0, 1.0)) * 180.0 / kPi;
   if (!(tilt_deg <= kMaxApproachTiltDeg)) {

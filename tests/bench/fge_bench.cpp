@@ -2,11 +2,10 @@
 #include <benchmark/benchmark.h>
 
 #include <numbers>
-#include <string>
-#include <vector>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
 
 #include "service/core/fge.h"
 #include "service/core/fge_geometry.h"
@@ -65,8 +64,8 @@ const Frame& ClutterWithHoles() {
     while (cv::countNonZero(holes) < 0.31 * static_cast<double>(holes.total())) {
       const cv::Point c(rng.uniform(0, holes.cols), rng.uniform(0, holes.rows));
       if (rng.uniform(0, 4) == 0) {
-        cv::ellipse(holes, c, cv::Size(rng.uniform(5, 40), rng.uniform(5, 40)),
-                    rng.uniform(0, 180), 0, 360, 255, cv::FILLED);
+        cv::ellipse(holes, c, cv::Size(rng.uniform(5, 40), rng.uniform(5, 40)), rng.uniform(0, 180),
+                    0, 360, 255, cv::FILLED);
       } else {
         holes(c) = 255;
       }
@@ -79,10 +78,14 @@ const Frame& ClutterWithHoles() {
 
 const Frame& FrameOf(const benchmark::State& state) {
   switch (state.range(0)) {
-    case 1: return Primesense();
-    case 2: return Phoxi();
-    case 3: return ClutterWithHoles();
-    default: return Clutter();
+    case 1:
+      return Primesense();
+    case 2:
+      return Phoxi();
+    case 3:
+      return ClutterWithHoles();
+    default:
+      return Clutter();
   }
 }
 

@@ -5,6 +5,7 @@
 // alone (POST /v1/stiffness). With both shipped models (the server's default): the
 // deformability strategy (segmentation model + Algorithm 1 on one target), the default then.
 #include <benchmark/benchmark.h>
+
 #include <opencv2/core/utility.hpp>
 
 #include "service/io/depth_codec.h"
@@ -33,8 +34,10 @@ testing::RunningServer& ServerWithBothModels() {
 std::string PrimesenseUpload(const std::string& target,
                              std::vector<testing::FormPart> fields = {}) {
   std::vector<testing::FormPart> parts = {
-      {"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")), "d.npy"},
-      {"intrinsics", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")), "p.intr"}};
+      {"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
+       "d.npy"},
+      {"intrinsics", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
+       "p.intr"}};
   parts.insert(parts.end(), fields.begin(), fields.end());
   return testing::MultipartRequest(target, parts);
 }
@@ -74,7 +77,8 @@ void BM_PostGraspsStiffnessClutter(benchmark::State& state) {
                              "&fy=" + std::to_string(c.fy) + "&cx=" + std::to_string(c.cx) +
                              "&cy=" + std::to_string(c.cy);
   Run(state, ServerWithModel(),
-      testing::RawRequest("POST", target, "application/x-npy", io::EncodeNpy(clutter.depth.depth_m)));
+      testing::RawRequest("POST", target, "application/x-npy",
+                          io::EncodeNpy(clutter.depth.depth_m)));
 }
 BENCHMARK(BM_PostGraspsStiffnessClutter)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -82,11 +86,12 @@ void BM_PostGraspsFgeClutter(benchmark::State& state) {
   const ::softgrasp::testing::SyntheticScene clutter =
       ::softgrasp::testing::RenderScene(::softgrasp::testing::ClutterSceneSpec());
   const core::Camera& c = clutter.camera;
-  const std::string target = "/v1/grasps?fx=" + std::to_string(c.fx) + "&fy=" +
-                             std::to_string(c.fy) + "&cx=" + std::to_string(c.cx) + "&cy=" +
-                             std::to_string(c.cy);
+  const std::string target = "/v1/grasps?fx=" + std::to_string(c.fx) +
+                             "&fy=" + std::to_string(c.fy) + "&cx=" + std::to_string(c.cx) +
+                             "&cy=" + std::to_string(c.cy);
   Run(state, Server(),
-      testing::RawRequest("POST", target, "application/x-npy", io::EncodeNpy(clutter.depth.depth_m)));
+      testing::RawRequest("POST", target, "application/x-npy",
+                          io::EncodeNpy(clutter.depth.depth_m)));
 }
 BENCHMARK(BM_PostGraspsFgeClutter)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -105,7 +110,8 @@ void BM_PostGraspsDeformabilityLeastDeformableClutter(benchmark::State& state) {
       std::to_string(c.fx) + "&fy=" + std::to_string(c.fy) + "&cx=" + std::to_string(c.cx) +
       "&cy=" + std::to_string(c.cy);
   Run(state, ServerWithBothModels(),
-      testing::RawRequest("POST", target, "application/x-npy", io::EncodeNpy(clutter.depth.depth_m)));
+      testing::RawRequest("POST", target, "application/x-npy",
+                          io::EncodeNpy(clutter.depth.depth_m)));
 }
 BENCHMARK(BM_PostGraspsDeformabilityLeastDeformableClutter)
     ->Unit(benchmark::kMillisecond)

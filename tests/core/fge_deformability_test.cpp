@@ -154,18 +154,18 @@ TEST(DetectGraspsDeformability, PressesSoftSpongesAsideToReachABox) {
 
   // Pushing off, or rigid neighbours: no grasp at all.
   params.soft_obstacle_threshold = 1.5;
-  EXPECT_TRUE(
-      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params).grasps.empty());
+  EXPECT_TRUE(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params)
+                  .grasps.empty());
   const Prepared rigid = Make(BoxBetweenSponges(), {{1, 1}, {2, 2}, {3, 3}},
                               {{1, 0.05f}, {2, 0.1f}, {3, 0.1f}}, {0.9f, 0.9f, 0.9f});
   params.soft_obstacle_threshold = 0.5;
-  EXPECT_TRUE(DetectGraspsDeformability(rigid.scene, rigid.synth.camera, rigid.objects, Gripper{},
-                                        params)
-                  .grasps.empty());
+  EXPECT_TRUE(
+      DetectGraspsDeformability(rigid.scene, rigid.synth.camera, rigid.objects, Gripper{}, params)
+          .grasps.empty());
   // A press depth too shallow for the slices: no grasp either.
   params.max_press_depth_m = 0.002;
-  EXPECT_TRUE(
-      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params).grasps.empty());
+  EXPECT_TRUE(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params)
+                  .grasps.empty());
 }
 
 // One object of two widths: a narrow arm (box 1, 18 mm across) and a wide one (box 2, 40 mm),
@@ -192,8 +192,8 @@ TEST(DetectGraspsDeformability, TheSmallestOpeningThatWorksWins) {
   const Prepared apart = Make(TwoWidths(), {{1, 2}, {2, 1}}, {{1, 0.1f}, {2, 0.1f}}, {0.9f, 0.9f});
   DeformabilityParams wide;
   wide.target_id = 1;
-  const auto full = DetectGraspsDeformability(apart.scene, apart.synth.camera, apart.objects,
-                                              gripper, wide);
+  const auto full =
+      DetectGraspsDeformability(apart.scene, apart.synth.camera, apart.objects, gripper, wide);
   ASSERT_FALSE(full.grasps.empty());
   for (const auto& dg : full.grasps) {
     EXPECT_DOUBLE_EQ(dg.opening_fraction, 1.0);
@@ -250,9 +250,9 @@ TEST(DetectGraspsDeformability, TargetPolicies) {
 
   // An explicit target wins over the policy.
   params.target_id = 1;
-  EXPECT_EQ(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params)
-                .target_id,
-            1);
+  EXPECT_EQ(
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params).target_id,
+      1);
 }
 
 TEST(DetectGraspsDeformability, LeastDeformableLooksPastATargetWhoseStiffPartIsOutOfReach) {
@@ -263,8 +263,8 @@ TEST(DetectGraspsDeformability, LeastDeformableLooksPastATargetWhoseStiffPartIsO
   spec.boxes = {Box{-0.06, 0.0, 0.090, 0.090, 0.050, 0.0, 1},
                 Box{0.005, 0.0, 0.040, 0.030, 0.050, 0.0, 2},
                 Box{0.08, 0.0, 0.030, 0.070, 0.040, 0.0, 3}};
-  const Prepared s = Make(spec, {{1, 1}, {2, 1}, {3, 2}}, {{1, 0.0f}, {2, 0.45f}, {3, 0.3f}},
-                          {0.9f, 0.9f});
+  const Prepared s =
+      Make(spec, {{1, 1}, {2, 1}, {3, 2}}, {{1, 0.0f}, {2, 0.45f}, {3, 0.3f}}, {0.9f, 0.9f});
   DeformabilityParams params;
   params.policy = TargetPolicy::kLeastDeformable;
   EXPECT_EQ(OrderTargets(s.scene, s.objects, params), (std::vector<int>{1, 2}));
@@ -302,7 +302,8 @@ TEST(DetectGraspsDeformability, UnconfidentInstancesAreNeverTargets) {
     EXPECT_NEAR(dg.mean_deformability, 0.1, 1e-4);
   }
   params.whole_scene_fallback = false;
-  const auto none = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  const auto none =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
   EXPECT_EQ(none.target_id, 0);
   EXPECT_FALSE(none.fallback);
   EXPECT_TRUE(none.grasps.empty());
@@ -320,8 +321,8 @@ TEST(DetectGraspsDeformability, TheNextTargetIsTriedWhenTheFirstHasNoGrasp) {
   DeformabilityParams one;
   one.max_targets = 1;
   one.whole_scene_fallback = false;
-  EXPECT_EQ(
-      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, one).target_id, 0);
+  EXPECT_EQ(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, one).target_id,
+            0);
 }
 
 TEST(DetectGraspsDeformability, AMaskCoveringPartOfItsObjectGrowsIntoTheUnlabelledForeground) {
@@ -335,14 +336,17 @@ TEST(DetectGraspsDeformability, AMaskCoveringPartOfItsObjectGrowsIntoTheUnlabell
   s.objects.foreground = cv::Mat1f(s.objects.labels.size(), 0.0f);
   s.objects.foreground.setTo(1.0f, s.objects.labels == 1);
   for (int v = 0; v < s.objects.labels.rows; ++v) {
-    for (int u = static_cast<int>(u_mid); u < s.objects.labels.cols; ++u) s.objects.labels(v, u) = 0;
+    for (int u = static_cast<int>(u_mid); u < s.objects.labels.cols; ++u)
+      s.objects.labels(v, u) = 0;
   }
   DeformabilityParams params;
   params.whole_scene_fallback = false;
   ObjectMaps cut = s.objects;
   cut.foreground = cv::Mat1f();
-  EXPECT_TRUE(DetectGraspsDeformability(s.scene, s.synth.camera, cut, Gripper{}, params).grasps.empty());
-  const auto grown = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_TRUE(
+      DetectGraspsDeformability(s.scene, s.synth.camera, cut, Gripper{}, params).grasps.empty());
+  const auto grown =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
   EXPECT_EQ(grown.target_id, 1);
   ASSERT_FALSE(grown.grasps.empty());
   EXPECT_EQ(BoxAtCenter(s, grown.grasps.front().grasp), 1);

@@ -1,8 +1,8 @@
 // Preprocess + FGE on real depth frames from the GQ-CNN example data (Primesense, Photoneo).
-#include <string>
-
 #include <gtest/gtest.h>
+
 #include <opencv2/imgcodecs.hpp>
+#include <string>
 
 #include "service/core/fge.h"
 #include "service/core/preprocess.h"
@@ -32,8 +32,8 @@ TEST_P(PrimesenseSingleObject, BestGraspIsOnTheObjectAndFingersAreFree) {
   const int i = GetParam();
   const std::string stem = kData + "/primesense/single_";
   const Scene scene = Prepare(stem + "depth_" + std::to_string(i) + ".npy", Primesense());
-  const cv::Mat1b mask = cv::imread(stem + "segmask_" + std::to_string(i) + ".png",
-                                    cv::IMREAD_GRAYSCALE);
+  const cv::Mat1b mask =
+      cv::imread(stem + "segmask_" + std::to_string(i) + ".png", cv::IMREAD_GRAYSCALE);
   ASSERT_FALSE(mask.empty());
   ASSERT_EQ(mask.size(), scene.height_m.size());
 

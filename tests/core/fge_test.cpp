@@ -1,13 +1,13 @@
 #include "service/core/fge.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <stdexcept>
-
-#include <gtest/gtest.h>
-#include <opencv2/imgproc.hpp>
 
 #include "service/core/fge_geometry.h"
 #include "service/core/preprocess.h"
@@ -22,17 +22,17 @@ using testing::RenderScene;
 using testing::SceneSpec;
 
 constexpr double kPi = std::numbers::pi;
-constexpr double kAngleStepRad = kPi / 16;   // FgeParams{}.num_angles = 16
-constexpr double kCenterTolM = 0.004;        // grasp centre vs box centre
-constexpr double kFootprintShrinkPx = 1.0;   // rasterisation slack at footprint borders
-constexpr double kWorkPixelPx = 2.0;         // the fast path rasterises at half resolution
+constexpr double kAngleStepRad = kPi / 16;  // FgeParams{}.num_angles = 16
+constexpr double kCenterTolM = 0.004;       // grasp centre vs box centre
+constexpr double kFootprintShrinkPx = 1.0;  // rasterisation slack at footprint borders
+constexpr double kWorkPixelPx = 2.0;        // the fast path rasterises at half resolution
 // Fast vs reference maps (the fast path works at half resolution on rotated images).
-constexpr double kMapIouMin = 0.8;           // candidate maps of a single box (measured 0.85-0.9)
-constexpr double kMapBorderPx = 3.0;         // disagreements lie this close to a region border
-constexpr double kClutterIouMin = 0.5;       // with thin corner slivers (measured 0.57-0.83)
-constexpr double kClutterBorderPx = 5.0;     // slivers up to ~10 px thick may differ
-constexpr double kCrossScoreMin = 0.95;      // one map's best pixel scores this well in the other
-constexpr double kContactRelTol = 0.15;      // mean A_t where both maps have candidates
+constexpr double kMapIouMin = 0.8;        // candidate maps of a single box (measured 0.85-0.9)
+constexpr double kMapBorderPx = 3.0;      // disagreements lie this close to a region border
+constexpr double kClutterIouMin = 0.5;    // with thin corner slivers (measured 0.57-0.83)
+constexpr double kClutterBorderPx = 5.0;  // slivers up to ~10 px thick may differ
+constexpr double kCrossScoreMin = 0.95;   // one map's best pixel scores this well in the other
+constexpr double kContactRelTol = 0.15;   // mean A_t where both maps have candidates
 
 struct Detection {
   testing::SyntheticScene synth;
@@ -213,8 +213,8 @@ TEST(DetectGraspsFge, ClutterGraspsAreCollisionFreeAndSuppressed) {
     EXPECT_GE(g.grasp_height_m, params.floor_clearance_m);
     for (std::size_t j = 0; j < i; ++j) {
       const Grasp& h = d.grasps[j];
-      const bool near = std::hypot(g.center_u_px - h.center_u_px,
-                                   g.center_v_px - h.center_v_px) < params.nms_radius_px;
+      const bool near = std::hypot(g.center_u_px - h.center_u_px, g.center_v_px - h.center_v_px) <
+                        params.nms_radius_px;
       const bool similar = AngleDistance(g.angle_rad, h.angle_rad) <= kAngleStepRad + 1e-9;
       EXPECT_FALSE(near && similar) << "grasps " << j << " and " << i << " were not merged";
     }
@@ -242,9 +242,9 @@ TEST(DetectGraspsFge, FingersStayInsideTheImage) {
     const Detection d = Detect(spec);
     for (const Grasp& g : d.grasps) {
       ++grasps;
-      const double reach_u = std::abs(std::cos(g.angle_rad)) *
-                                 (g.opening_px / 2 + g.finger_thickness_px) +
-                             std::abs(std::sin(g.angle_rad)) * g.finger_width_px / 2;
+      const double reach_u =
+          std::abs(std::cos(g.angle_rad)) * (g.opening_px / 2 + g.finger_thickness_px) +
+          std::abs(std::sin(g.angle_rad)) * g.finger_width_px / 2;
       EXPECT_GE(g.center_u_px - reach_u, -0.5 - kWorkPixelPx)
           << "gap " << gap_m << ": a finger leaves the image";
     }
@@ -318,8 +318,7 @@ TEST(DetectGraspsFge, SurfacesNearerThanTheMinimumDepthAreObstaclesOnly) {
     EXPECT_FALSE(FingersTouchId(d, g, 1));
     EXPECT_LE(MaxHeightUnderFingers(d, g), g.grasp_height_m);
   }
-  EXPECT_THROW(RestrictContact(d.scene, cv::Mat1b(10, 10, uchar{255}), 0.0),
-               std::invalid_argument);
+  EXPECT_THROW(RestrictContact(d.scene, cv::Mat1b(10, 10, uchar{255}), 0.0), std::invalid_argument);
   EXPECT_THROW(RestrictContact(d.scene, {}, -1.0), std::invalid_argument);
 }
 
@@ -445,9 +444,7 @@ TEST(DetectGraspsFge, FilledDropoutsAlongAnEdgeAreNoSeam) {
   EXPECT_LE(AngleDistance(grasps.front().angle_rad, box.yaw_rad), kAngleStepRad + 1e-9);
 }
 
-TEST(DetectGraspsFge, FlatTableHasNoGrasp) {
-  EXPECT_TRUE(Detect(SceneSpec{}).grasps.empty());
-}
+TEST(DetectGraspsFge, FlatTableHasNoGrasp) { EXPECT_TRUE(Detect(SceneSpec{}).grasps.empty()); }
 
 TEST(DetectGraspsFge, RejectsBadParameters) {
   const Detection d = Detect(SceneSpec{});

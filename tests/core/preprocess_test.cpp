@@ -1,10 +1,10 @@
 #include "service/core/preprocess.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
 #include <numbers>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
 #include "tests/support/synthetic_scene.h"
@@ -16,10 +16,10 @@ using testing::Box;
 using testing::RenderScene;
 using testing::SceneSpec;
 
-constexpr double kHeightTolM = 0.001;        // heights from an exact scene
-constexpr double kFlatTolM = 1e-4;           // a bare table is flat to well under a millimetre
+constexpr double kHeightTolM = 0.001;  // heights from an exact scene
+constexpr double kFlatTolM = 1e-4;     // a bare table is flat to well under a millimetre
 constexpr double kNormalTolRad = 0.2 * std::numbers::pi / 180;
-constexpr double kFilledTolM = 0.005;        // inpainted table pixels
+constexpr double kFilledTolM = 0.005;  // inpainted table pixels
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 double MaxAbsHeightWhere(const Scene& scene, const cv::Mat1b& mask, double expected) {
@@ -78,7 +78,8 @@ TEST(Preprocess, TiltedTableIsRecovered) {
   const auto scene = Preprocess(synth.depth, synth.camera);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
   // The table normal (0, 0, 1) in table coordinates, seen from the camera.
-  const cv::Point3d up = testing::TableToCamera(spec, 0, 0, 1) - testing::TableToCamera(spec, 0, 0, 0);
+  const cv::Point3d up =
+      testing::TableToCamera(spec, 0, 0, 1) - testing::TableToCamera(spec, 0, 0, 0);
   const auto& n = scene.value().floor.n;
   const double cos_err = n[0] * up.x + n[1] * up.y + n[2] * up.z;
   EXPECT_GT(cos_err, std::cos(kNormalTolRad));

@@ -66,8 +66,8 @@ Plan MustPlan(const PlanOptions& options, const Models& models = {}) {
 
 std::shared_ptr<const models::StiffnessModel> ShippedStiffness() {
   static const auto model = [] {
-    auto loaded =
-        models::StiffnessModel::Load(std::string(SOFTGRASP_SOURCE_DIR) + "/models/pix2stiffness.pt");
+    auto loaded = models::StiffnessModel::Load(std::string(SOFTGRASP_SOURCE_DIR) +
+                                               "/models/pix2stiffness.pt");
     if (!loaded.ok()) throw std::runtime_error(loaded.error().message);
     return std::make_shared<const models::StiffnessModel>(std::move(loaded).value());
   }();

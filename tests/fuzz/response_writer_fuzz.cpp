@@ -48,8 +48,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (size < 2) return 0;
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
   Response response;
-  response.status = 100 + (static_cast<unsigned char>(bytes[0]) * 256 +
-                           static_cast<unsigned char>(bytes[1])) % 500;
+  response.status =
+      100 +
+      (static_cast<unsigned char>(bytes[0]) * 256 + static_cast<unsigned char>(bytes[1])) % 500;
   const auto flags = static_cast<unsigned char>(bytes[1]);
   const std::vector<std::string_view> fields = Fields(bytes.substr(2));
   const std::string request_id(fields.front());

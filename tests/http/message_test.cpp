@@ -1,8 +1,8 @@
 #include "service/http/message.h"
 
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
+#include <nlohmann/json.hpp>
 #include <string>
 
 namespace softgrasp::http {

@@ -47,8 +47,7 @@ TEST(HttpMultipart, BinaryDataWithCrlfAndBoundaryLookalikes) {
   std::string data = "\r\n\r\n--bound\r--boundary\r\n--boundaryX\r\n--boundary-\r\n";
   data += std::string("\0\xff\x01\r\n", 5);
   const std::string body =
-      Part("boundary", "Content-Disposition: form-data; name=\"bin\"\r\n", data) +
-      "--boundary--";
+      Part("boundary", "Content-Disposition: form-data; name=\"bin\"\r\n", data) + "--boundary--";
   const auto result = ParseMultipart("multipart/form-data; boundary=boundary", body);
   ASSERT_TRUE(result.ok()) << result.error;
   ASSERT_EQ(result.parts.size(), 1u);
@@ -56,9 +55,10 @@ TEST(HttpMultipart, BinaryDataWithCrlfAndBoundaryLookalikes) {
 }
 
 TEST(HttpMultipart, PreambleEpilogueAndTransportPadding) {
-  const std::string body = "This is the preamble.\r\n--b  \t\r\n"
-                           "Content-Disposition: form-data; name=x\r\n\r\nvalue\r\n"
-                           "--b--  \r\nThis is the epilogue.\r\n--b\r\nnot a part";
+  const std::string body =
+      "This is the preamble.\r\n--b  \t\r\n"
+      "Content-Disposition: form-data; name=x\r\n\r\nvalue\r\n"
+      "--b--  \r\nThis is the epilogue.\r\n--b\r\nnot a part";
   const auto result = ParseMultipart("multipart/form-data; boundary=b", body);
   ASSERT_TRUE(result.ok()) << result.error;
   ASSERT_EQ(result.parts.size(), 1u);
@@ -110,21 +110,23 @@ INSTANTIATE_TEST_SUITE_P(
         BadMultipart{"empty_boundary", "multipart/form-data; boundary=\"\"", "----\r\n"},
         BadMultipart{"boundary_too_long", "multipart/form-data; boundary=" + std::string(71, 'b'),
                      "--" + std::string(71, 'b') + "--"},
-        BadMultipart{"unterminated_quote", "multipart/form-data; boundary=\"b", kGoodPart + "--b--"},
+        BadMultipart{"unterminated_quote", "multipart/form-data; boundary=\"b",
+                     kGoodPart + "--b--"},
         BadMultipart{"not_form_data", "multipart/mixed; boundary=b", kGoodPart + "--b--"},
         BadMultipart{"not_multipart", "application/json", "{}"},
         BadMultipart{"no_opening_boundary", kType, "just some bytes"},
         BadMultipart{"empty_body", kType, ""},
-        BadMultipart{"no_disposition", kType, Part("b", "Content-Type: text/plain\r\n", "1") + "--b--"},
+        BadMultipart{"no_disposition", kType,
+                     Part("b", "Content-Type: text/plain\r\n", "1") + "--b--"},
         BadMultipart{"no_name", kType,
                      Part("b", "Content-Disposition: form-data; filename=f\r\n", "1") + "--b--"},
         BadMultipart{"attachment", kType,
                      Part("b", "Content-Disposition: attachment; name=a\r\n", "1") + "--b--"},
         BadMultipart{"headers_not_terminated", kType,
                      "--b\r\nContent-Disposition: form-data; name=a\r\n--b--"},
-        BadMultipart{"bad_header_line", kType,
-                     Part("b", "Content-Disposition: form-data; name=a\r\nno colon\r\n", "1") +
-                         "--b--"},
+        BadMultipart{
+            "bad_header_line", kType,
+            Part("b", "Content-Disposition: form-data; name=a\r\nno colon\r\n", "1") + "--b--"},
         BadMultipart{"folded_header", kType,
                      Part("b", "Content-Disposition: form-data;\r\n name=a\r\n", "1") + "--b--"}),
     [](const ::testing::TestParamInfo<BadMultipart>& param_info) {

@@ -15,7 +15,9 @@ std::string Serialize(const Response& response, ResponseFraming framing = {"req-
   return out;
 }
 
-std::string HeadBlock(const std::string& bytes) { return bytes.substr(0, bytes.find("\r\n\r\n") + 2); }
+std::string HeadBlock(const std::string& bytes) {
+  return bytes.substr(0, bytes.find("\r\n\r\n") + 2);
+}
 
 TEST(ResponseWriter, FramesStatusHeadersAndBody) {
   Response response = Response::Bytes(201, "text/plain", "hello");
@@ -36,8 +38,8 @@ TEST(ResponseWriter, FramesStatusHeadersAndBody) {
 
 TEST(ResponseWriter, DropsTheHandlersCopiesOfServerHeaders) {
   Response response = Response::Bytes(200, "text/plain", "abc");
-  for (const char* name : {"content-length", "Transfer-Encoding", "CONNECTION", "Date",
-                           "x-request-id"}) {
+  for (const char* name :
+       {"content-length", "Transfer-Encoding", "CONNECTION", "Date", "x-request-id"}) {
     response.headers.emplace_back(name, "999");
   }
   const std::string head = HeadBlock(Serialize(response));
@@ -80,8 +82,8 @@ TEST(ResponseWriter, HeadGetsTheLengthButNoBody) {
 TEST(ResponseWriter, BodilessStatusesHaveNeitherLengthNorBody) {
   for (const int status : {101, 204, 304}) {
     std::size_t body_bytes = 99;
-    const std::string out =
-        Serialize(Response::Bytes(status, "text/plain", "ignored"), {"r", true, false}, &body_bytes);
+    const std::string out = Serialize(Response::Bytes(status, "text/plain", "ignored"),
+                                      {"r", true, false}, &body_bytes);
     EXPECT_EQ(out.find("Content-Length"), std::string::npos) << status;
     EXPECT_EQ(out.substr(out.size() - 4), "\r\n\r\n") << status;
     EXPECT_EQ(body_bytes, 0u) << status;

@@ -1,11 +1,9 @@
 #include "service/http/server.h"
 
+#include <gtest/gtest.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -13,6 +11,7 @@
 #include <condition_variable>
 #include <future>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -185,7 +184,8 @@ TEST_F(HttpServer, PipelinedRequestsAreAnsweredInOrder) {
   options.num_workers = 4;
   auto server = StartServer(options);
   HttpClient client(server->port());
-  client.Send(Get("/slow") + Get("/b") + "POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: 3\r\n\r\nxyz" +
+  client.Send(Get("/slow") + Get("/b") +
+              "POST /echo HTTP/1.1\r\nHost: t\r\nContent-Length: 3\r\n\r\nxyz" +
               Get("/d", "Connection: close\r\n"));
   const auto a = client.Read();
   const auto b = client.Read();
@@ -525,7 +525,7 @@ TEST_F(HttpServer, StopLetsAnInFlightRequestFinish) {
   EXPECT_EQ(response->header("Connection"), "close");
   EXPECT_TRUE(idle.ReadUntilClosed());
   EXPECT_THROW(HttpClient refused(port), std::runtime_error);  // no longer listening
-  server->Stop();                                           // idempotent
+  server->Stop();                                              // idempotent
 }
 
 TEST_F(HttpServer, AccessLogHasOneLinePerAnswerAndNoHeaderValues) {
@@ -593,7 +593,8 @@ TEST_F(HttpServer, HeadGetsHeadersWithoutBody) {
 TEST_F(HttpServer, ExpectContinueGets100First) {
   auto server = StartServer(Options());
   HttpClient client(server->port());
-  client.Send("POST /echo HTTP/1.1\r\nHost: t\r\nExpect: 100-continue\r\nContent-Length: 5\r\n\r\n");
+  client.Send(
+      "POST /echo HTTP/1.1\r\nHost: t\r\nExpect: 100-continue\r\nContent-Length: 5\r\n\r\n");
   const auto interim = client.Read();
   ASSERT_TRUE(interim.has_value());
   EXPECT_EQ(interim->status, 100);

@@ -30,8 +30,7 @@ void ExpectFieldError(const std::string& json, const std::string& field) {
 }
 
 TEST(IntrinsicsTest, ParsesPrimesenseSample) {
-  const auto camera =
-      ParseIntrinsicsJson(ReadFile(TestData("gqcnn/primesense/primesense.intr")));
+  const auto camera = ParseIntrinsicsJson(ReadFile(TestData("gqcnn/primesense/primesense.intr")));
   ASSERT_TRUE(camera.ok()) << camera.error().message;
   EXPECT_DOUBLE_EQ(camera.value().fx, 525.0);
   EXPECT_DOUBLE_EQ(camera.value().fy, 525.0);

@@ -68,7 +68,7 @@ TEST(DecodeMask, ColourAnyChannelCountsAndAlphaIsIgnored) {
   ExpectMask(DecodeMask(EncodeWithOpenCv(".png", colour), kMaxPixels), Expected());
 
   cv::Mat4b rgba(Expected().size(), cv::Vec4b(0, 0, 0, 255));  // opaque black: not allowed
-  rgba.setTo(cv::Vec4b(0, 9, 0, 0), Expected());                // transparent green: allowed
+  rgba.setTo(cv::Vec4b(0, 9, 0, 0), Expected());               // transparent green: allowed
   ExpectMask(DecodeMask(EncodeWithOpenCv(".png", rgba), kMaxPixels), Expected());
 }
 

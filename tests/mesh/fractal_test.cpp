@@ -36,7 +36,7 @@ constexpr std::uint64_t kGoldenHash = 0x3db611749a7adcfa;
 
 std::string FirstProblem(const MeshReport& r) { return r.problems.empty() ? "" : r.problems[0]; }
 
-/// Everything the issue promises about one generated model.
+/// Everything docs/fractals.md promises about one generated model.
 void ExpectValidModel(const FractalModel& m, const FractalParams& p) {
   const MeshReport r = CheckMesh(m.mesh);
   ASSERT_TRUE(r.ok()) << "seed " << p.seed << ": " << FirstProblem(r);

@@ -2,6 +2,8 @@
 // expectations), and the training pipeline on a tiny simulated dataset (checkpoints, resume,
 // inference sizes, clear errors for bad model files).
 
+#include "service/models/segmentation_model.h"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -14,7 +16,6 @@
 #include "service/models/dataset.h"
 #include "service/models/network.h"
 #include "service/models/segmentation_grouping.h"
-#include "service/models/segmentation_model.h"
 #include "service/models/segmentation_network.h"
 #include "service/models/segmentation_trainer.h"
 #include "service/models/stiffness_model.h"
@@ -64,8 +65,8 @@ TEST(GroupInstances, PerfectHeadsGiveTheLabelsBackAtTwiceTheSize) {
     const std::uint16_t id = m.labels(v, u);
     ASSERT_GT(id, 0);
     const cv::Mat1b pred = m.labels == id;
-    const double iou = static_cast<double>(cv::countNonZero(pred & truth)) /
-                       cv::countNonZero(pred | truth);
+    const double iou =
+        static_cast<double>(cv::countNonZero(pred & truth)) / cv::countNonZero(pred | truth);
     EXPECT_GT(iou, 0.9) << "instance " << old_id;  // bilinear edges cost a pixel ring
     EXPECT_GT(m.scores[id - 1u], 0.9f);
   }
@@ -134,8 +135,10 @@ TEST_F(SegmentationPipelineTest, SetHoldsLabelsAndDeformabilityAtModelSize) {
   // Deformability lives on objects only and is 1 - stiffness, so in [0, 0.9] there.
   int objects = 0;
   for (std::size_t k = 0; k < set_->labels[0].size(); ++k) {
-    if (set_->labels[0][k] > 0) ++objects;
-    else EXPECT_LE(set_->deformability[0][k], 255 / 2);  // only mixed edge pixels are non-zero
+    if (set_->labels[0][k] > 0)
+      ++objects;
+    else
+      EXPECT_LE(set_->deformability[0][k], 255 / 2);  // only mixed edge pixels are non-zero
   }
   EXPECT_GT(objects, 20);
   EXPECT_GT(set_->mean_object_deformability, 0.0);
@@ -204,9 +207,11 @@ TEST_F(SegmentationPipelineTest, BadModelFilesGiveClearErrors) {
   ASSERT_TRUE(TrainSegmentation(Options("cut", 1), *set_).ok());
   const fs::path whole = *root_ / "cut" / "segmentation.pt";
   std::string bytes(fs::file_size(whole), '\0');
-  std::ifstream(whole, std::ios::binary).read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  std::ifstream(whole, std::ios::binary)
+      .read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   const fs::path cut = *root_ / "cut.pt";
-  std::ofstream(cut, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  std::ofstream(cut, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
   auto truncated = SegmentationModel::Load(cut);
   ASSERT_FALSE(truncated.ok());
   EXPECT_EQ(truncated.error().code, core::ErrorCode::kUnprocessable);

@@ -73,14 +73,15 @@ TEST_P(RealFrames, ConfidentInstancesCoverTheObjects) {
   const double iou = uni > 0 ? inter / uni : 0.0;
   const double predicted = cv::countNonZero(confident);
   const double off = predicted > 0 ? (predicted - inter) / predicted : 0.0;
-  std::printf("%s: %d confident instances of %d, union IoU %.3f, %.1f %% off the objects, %.0f ms; "
-              "scores",
-              f.name.c_str(), kept, out.instances.count(), iou, 100 * off, ms);
+  std::printf(
+      "%s: %d confident instances of %d, union IoU %.3f, %.1f %% off the objects, %.0f ms; "
+      "scores",
+      f.name.c_str(), kept, out.instances.count(), iou, 100 * off, ms);
   for (int id = 1; id <= out.instances.count(); ++id) {
     const cv::Mat1b mask = out.instances.labels == id;
     std::printf(" %d:%.2f/%dpx/%.0f%%", id, out.instances.scores[static_cast<std::size_t>(id - 1)],
-                cv::countNonZero(mask), 100.0 * cv::countNonZero(mask & truth) /
-                                            std::max(1, cv::countNonZero(mask)));
+                cv::countNonZero(mask),
+                100.0 * cv::countNonZero(mask & truth) / std::max(1, cv::countNonZero(mask)));
   }
   std::printf("\n");
   if (const char* dir = std::getenv("SOFTGRASP_WRITE_OVERLAYS")) {
@@ -103,18 +104,20 @@ TEST_P(RealFrames, ConfidentInstancesCoverTheObjects) {
 const core::Camera kPrimesense{525.0, 525.0, 319.5, 239.5, 640, 480};
 const core::Camera kPhoxi{552.5, 552.5, 255.5, 191.75, 516, 386};
 
-INSTANTIATE_TEST_SUITE_P(
-    Gqcnn, RealFrames,
-    ::testing::Values(
-        Frame{"gqcnn/primesense/single_depth_0.npy", "gqcnn/primesense/single_segmask_0.png",
-              "primesense0", kPrimesense, 0.80, 0.20},
-        Frame{"gqcnn/primesense/single_depth_1.npy", "gqcnn/primesense/single_segmask_1.png",
-              "primesense1", kPrimesense, 0.25, 0.40},
-        Frame{"gqcnn/primesense/single_depth_2.npy", "gqcnn/primesense/single_segmask_2.png",
-              "primesense2", kPrimesense, 0.70, 0.28},
-        Frame{"gqcnn/phoxi/clutter_depth_0.npy", "gqcnn/phoxi/clutter_segmask_0.png", "phoxi",
-              kPhoxi, 0.55, 0.18}),
-    [](const ::testing::TestParamInfo<Frame>& p) { return p.param.name; });
+INSTANTIATE_TEST_SUITE_P(Gqcnn, RealFrames,
+                         ::testing::Values(Frame{"gqcnn/primesense/single_depth_0.npy",
+                                                 "gqcnn/primesense/single_segmask_0.png",
+                                                 "primesense0", kPrimesense, 0.80, 0.20},
+                                           Frame{"gqcnn/primesense/single_depth_1.npy",
+                                                 "gqcnn/primesense/single_segmask_1.png",
+                                                 "primesense1", kPrimesense, 0.25, 0.40},
+                                           Frame{"gqcnn/primesense/single_depth_2.npy",
+                                                 "gqcnn/primesense/single_segmask_2.png",
+                                                 "primesense2", kPrimesense, 0.70, 0.28},
+                                           Frame{"gqcnn/phoxi/clutter_depth_0.npy",
+                                                 "gqcnn/phoxi/clutter_segmask_0.png", "phoxi",
+                                                 kPhoxi, 0.55, 0.18}),
+                         [](const ::testing::TestParamInfo<Frame>& p) { return p.param.name; });
 
 }  // namespace
 }  // namespace softgrasp::models

@@ -73,9 +73,10 @@ TEST(ShippedSegmentationModel, MeetsItsRecordedScoresAndBeatsPcl) {
   ASSERT_GT(n, 0);
   const segmentation::MaskScores m = model_eval.Compute(), p = pcl_eval.Compute();
   const double rmse = rmse_sum / n, mssim = mssim_sum / n;
-  std::printf("shipped segmentation model on %d val scenes: AP50 %.3f AP %.3f AR %.3f (PCL AP50 "
-              "%.3f AP %.3f AR %.3f); deformability RMSE %.2f MSSIM %.4f\n",
-              n, m.ap50, m.ap, m.ar, p.ap50, p.ap, p.ar, rmse, mssim);
+  std::printf(
+      "shipped segmentation model on %d val scenes: AP50 %.3f AP %.3f AR %.3f (PCL AP50 "
+      "%.3f AP %.3f AR %.3f); deformability RMSE %.2f MSSIM %.4f\n",
+      n, m.ap50, m.ap, m.ar, p.ap50, p.ap, p.ar, rmse, mssim);
   const double margin = q.value("ap_margin", 0.03);
   EXPECT_GE(m.ap50, q.at("ap50").get<double>() - margin);
   EXPECT_GE(m.ap, q.at("ap").get<double>() - margin);

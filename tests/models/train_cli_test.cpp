@@ -51,9 +51,7 @@ class TrainCliTest : public ::testing::Test {
     auto index = sim::GenerateDataset(params);
     ASSERT_TRUE(index.ok()) << index.error().message;
   }
-  static void TearDownTestSuite() {
-    delete root_;
-  }
+  static void TearDownTestSuite() { delete root_; }
 
   static CliRun Train(const std::string& args) {
     const fs::path out = *root_ / "stdout.txt", err = *root_ / "stderr.txt";
@@ -249,7 +247,8 @@ TEST_F(TrainCliTest, EvaluateTasksRunsEveryTaskAndPlannerOnTheSameScenes) {
   const CliRun r = Train("evaluate-tasks --segmentation-model " + ShippedSegmentation() +
                          " --stiffness-model " + Shipped() +
                          " --clutter-scenes 2 --brush-scenes 1 --obstacle-scenes 1 --bins 1"
-                         " --max-attempts 2 --per-grasp --threads 1 --out " + out.string());
+                         " --max-attempts 2 --per-grasp --threads 1 --out " +
+                         out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json j = json::parse(r.out);
   EXPECT_EQ(json::parse(Slurp(out)), j);

@@ -1,8 +1,8 @@
 // POST /v1/fractals end to end: real server, real socket.
-#include <string>
-
 #include <gtest/gtest.h>
+
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "service/mesh/mesh_check.h"
 #include "service/mesh/mesh_io.h"
@@ -49,7 +49,8 @@ TEST_F(FractalsApiTest, StatisticsDescribeAClosedScaledMesh) {
   EXPECT_LE(stats["points_triangulated"].get<int>(), stats["points"].get<int>());
   // Smallest bounding-box side = 80 % of the 50 mm opening.
   const auto& size = stats["bbox"]["size_m"];
-  const double smallest = std::min({size[0].get<double>(), size[1].get<double>(), size[2].get<double>()});
+  const double smallest =
+      std::min({size[0].get<double>(), size[1].get<double>(), size[2].get<double>()});
   EXPECT_NEAR(smallest, 0.04, 1e-6);
 }
 
@@ -62,14 +63,16 @@ TEST_F(FractalsApiTest, SameSeedSameBytesAndAClosedMeshInEveryFormat) {
     ASSERT_EQ(a.status, 200) << a.body;
     EXPECT_EQ(a.body, b.body);
     const std::string disposition(a.header("Content-Disposition").value_or(""));
-    EXPECT_NE(disposition.find("attachment; filename=\"fractal-seed11-alpha0.3."), std::string::npos)
+    EXPECT_NE(disposition.find("attachment; filename=\"fractal-seed11-alpha0.3."),
+              std::string::npos)
         << disposition;
     auto mesh = mesh::ReadMesh(a.body);
     ASSERT_TRUE(mesh.ok()) << mesh.error().message;
     const mesh::MeshReport report = mesh::CheckMesh(mesh.value());
     EXPECT_TRUE(report.ok()) << ::testing::PrintToString(report.problems);
   }
-  EXPECT_NE(Post(R"({"seed": 11, "points": 4000})").body, Post(R"({"seed": 12, "points": 4000})").body);
+  EXPECT_NE(Post(R"({"seed": 11, "points": 4000})").body,
+            Post(R"({"seed": 12, "points": 4000})").body);
 }
 
 TEST_F(FractalsApiTest, BadParametersNameTheirField) {

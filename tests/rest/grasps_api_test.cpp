@@ -1,12 +1,12 @@
 // POST /v1/grasps end to end: real server, real socket, real depth files.
-#include <cmath>
-#include <numbers>
-#include <string>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
 #include "service/io/depth_codec.h"
 #include "tests/rest/server_fixture.h"
@@ -52,7 +52,9 @@ TEST_F(GraspsApiTest, PrimesenseFramesGiveGraspsOnTheObject) {
     SCOPED_TRACE("single_depth_" + std::to_string(i));
     const auto reply = server_->Send(MultipartRequest(
         "/v1/grasps",
-        {{"depth", ReadFileBytes(TestData("gqcnn/primesense/single_depth_" + std::to_string(i) + ".npy")), "d.npy"},
+        {{"depth",
+          ReadFileBytes(TestData("gqcnn/primesense/single_depth_" + std::to_string(i) + ".npy")),
+          "d.npy"},
          {"intrinsics", ReadFileBytes(TestData("gqcnn/primesense/primesense.intr")), "p.intr"}}));
     ASSERT_EQ(reply.status, 200) << reply.body;
     const json body = json::parse(reply.body);
@@ -62,14 +64,14 @@ TEST_F(GraspsApiTest, PrimesenseFramesGiveGraspsOnTheObject) {
     ASSERT_FALSE(body["grasps"].empty());
     const json& best = body["grasps"][0];
     EXPECT_EQ(best["rank"], 1);
-    const cv::Mat mask = cv::imread(
-        TestData("gqcnn/primesense/single_segmask_" + std::to_string(i) + ".png"),
-        cv::IMREAD_GRAYSCALE);
+    const cv::Mat mask =
+        cv::imread(TestData("gqcnn/primesense/single_segmask_" + std::to_string(i) + ".png"),
+                   cv::IMREAD_GRAYSCALE);
     ASSERT_FALSE(mask.empty());
     const int u = static_cast<int>(std::lround(best["center_px"]["u"].get<double>()));
     const int v = static_cast<int>(std::lround(best["center_px"]["v"].get<double>()));
-    EXPECT_GT(mask.at<uint8_t>(v, u), 0) << "best grasp centre (" << u << ", " << v
-                                         << ") is off the object";
+    EXPECT_GT(mask.at<uint8_t>(v, u), 0)
+        << "best grasp centre (" << u << ", " << v << ") is off the object";
     // The pose lies on the centre pixel's ray: u = fx x / z + cx.
     const auto& p = best["pose"]["position_m"];
     const double z = p[2].get<double>();
@@ -77,20 +79,21 @@ TEST_F(GraspsApiTest, PrimesenseFramesGiveGraspsOnTheObject) {
     EXPECT_NEAR(525.0 * p[0].get<double>() / z + 319.5, best["center_px"]["u"].get<double>(), 0.5);
     EXPECT_NEAR(525.0 * p[1].get<double>() / z + 239.5, best["center_px"]["v"].get<double>(), 0.5);
     double norm = 0;
-    for (const auto& q : best["pose"]["orientation_wxyz"]) norm += q.get<double>() * q.get<double>();
+    for (const auto& q : best["pose"]["orientation_wxyz"])
+      norm += q.get<double>() * q.get<double>();
     EXPECT_NEAR(norm, 1.0, 1e-9);
     // Ranked best first.
     for (std::size_t k = 1; k < body["grasps"].size(); ++k) {
-      EXPECT_GE(body["grasps"][k - 1]["score"].get<double>(), body["grasps"][k]["score"].get<double>());
+      EXPECT_GE(body["grasps"][k - 1]["score"].get<double>(),
+                body["grasps"][k]["score"].get<double>());
     }
   }
 }
 
 TEST_F(GraspsApiTest, PhoxiFrameWithMissingPixelsGivesGrasps) {
   const auto reply = server_->Send(MultipartRequest(
-      "/v1/grasps",
-      {{"depth", ReadFileBytes(TestData("gqcnn/phoxi/clutter_depth_0.npy")), "d.npy"},
-       {"intrinsics", ReadFileBytes(TestData("gqcnn/phoxi/phoxi.intr")), "p.intr"}}));
+      "/v1/grasps", {{"depth", ReadFileBytes(TestData("gqcnn/phoxi/clutter_depth_0.npy")), "d.npy"},
+                     {"intrinsics", ReadFileBytes(TestData("gqcnn/phoxi/phoxi.intr")), "p.intr"}}));
   ASSERT_EQ(reply.status, 200) << reply.body;
   const json body = json::parse(reply.body);
   EXPECT_NEAR(body["image"]["missing_fraction"].get<double>(), 0.31, 0.02);
@@ -98,9 +101,9 @@ TEST_F(GraspsApiTest, PhoxiFrameWithMissingPixelsGivesGrasps) {
 }
 
 TEST_F(GraspsApiTest, RawBodyWithQueryIntrinsicsAndTopK) {
-  const auto reply = server_->Send(RawRequest(
-      "POST", "/v1/grasps?fx=525&fy=525&cx=319.5&cy=239.5&top_k=2", "application/x-npy",
-      ReadFileBytes(TestData("gqcnn/primesense/single_depth_1.npy"))));
+  const auto reply = server_->Send(
+      RawRequest("POST", "/v1/grasps?fx=525&fy=525&cx=319.5&cy=239.5&top_k=2", "application/x-npy",
+                 ReadFileBytes(TestData("gqcnn/primesense/single_depth_1.npy"))));
   ASSERT_EQ(reply.status, 200) << reply.body;
   const json body = json::parse(reply.body);
   EXPECT_EQ(body["camera"]["source"], "request");
@@ -114,8 +117,8 @@ TEST_F(GraspsApiTest, Png16InMillimetresGivesTheSameGraspsAsNpy) {
   ASSERT_TRUE(depth.ok());
   cv::Mat1w mm;
   depth.value().depth_m.convertTo(mm, CV_16U, 1000.0);
-  const auto reply_png = server_->Send(
-      RawRequest("POST", "/v1/grasps", "image/png", io::EncodePng(mm)));
+  const auto reply_png =
+      server_->Send(RawRequest("POST", "/v1/grasps", "image/png", io::EncodePng(mm)));
   const auto reply_npy = server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", npy));
   ASSERT_EQ(reply_png.status, 200) << reply_png.body;
   ASSERT_EQ(reply_npy.status, 200) << reply_npy.body;
@@ -132,18 +135,23 @@ TEST_F(GraspsApiTest, Png16InMillimetresGivesTheSameGraspsAsNpy) {
     for (const json& g : others) {
       if (g["score"].get<double>() < 0.9 * best_other) break;
       const double angle_step = std::numbers::pi / 16;  // FgeParams{}.num_angles = 16
-      const double turn = std::fmod(
-          std::abs(g["angle_rad"].get<double>() - best["angle_rad"].get<double>()), std::numbers::pi);
-      if (std::abs(g["center_px"]["u"].get<double>() - best["center_px"]["u"].get<double>()) <= 3.0 &&
-          std::abs(g["center_px"]["v"].get<double>() - best["center_px"]["v"].get<double>()) <= 3.0 &&
+      const double turn =
+          std::fmod(std::abs(g["angle_rad"].get<double>() - best["angle_rad"].get<double>()),
+                    std::numbers::pi);
+      if (std::abs(g["center_px"]["u"].get<double>() - best["center_px"]["u"].get<double>()) <=
+              3.0 &&
+          std::abs(g["center_px"]["v"].get<double>() - best["center_px"]["v"].get<double>()) <=
+              3.0 &&
           std::min(turn, std::numbers::pi - turn) <= angle_step + 1e-9) {
         return true;
       }
     }
     return false;
   };
-  EXPECT_TRUE(best_is_among_near_best(png[0], npy_grasps)) << png.dump() << "\n" << npy_grasps.dump();
-  EXPECT_TRUE(best_is_among_near_best(npy_grasps[0], png)) << png.dump() << "\n" << npy_grasps.dump();
+  EXPECT_TRUE(best_is_among_near_best(png[0], npy_grasps)) << png.dump() << "\n"
+                                                           << npy_grasps.dump();
+  EXPECT_TRUE(best_is_among_near_best(npy_grasps[0], png)) << png.dump() << "\n"
+                                                           << npy_grasps.dump();
 }
 
 TEST_F(GraspsApiTest, OverlayPngHasTheImageSize) {
@@ -151,14 +159,15 @@ TEST_F(GraspsApiTest, OverlayPngHasTheImageSize) {
     const std::string target = how == "query" ? "/v1/grasps?format=png" : "/v1/grasps";
     const std::string headers = how == "accept" ? "Accept: image/png\r\n" : "";
     const auto reply = server_->Send(MultipartRequest(
-        target, {{"depth", ReadFileBytes(TestData("gqcnn/primesense/single_depth_2.npy")), "d.npy"}},
+        target,
+        {{"depth", ReadFileBytes(TestData("gqcnn/primesense/single_depth_2.npy")), "d.npy"}},
         headers));
     ASSERT_EQ(reply.status, 200) << reply.body;
     EXPECT_EQ(reply.header("Content-Type").value_or(""), "image/png");
     EXPECT_GE(std::stoi(std::string(reply.header("X-Grasp-Count").value_or("0"))), 1);
-    const cv::Mat image = cv::imdecode(
-        cv::Mat(1, static_cast<int>(reply.body.size()), CV_8U, const_cast<char*>(reply.body.data())),
-        cv::IMREAD_UNCHANGED);
+    const cv::Mat image = cv::imdecode(cv::Mat(1, static_cast<int>(reply.body.size()), CV_8U,
+                                               const_cast<char*>(reply.body.data())),
+                                       cv::IMREAD_UNCHANGED);
     ASSERT_FALSE(image.empty());
     EXPECT_EQ(image.cols, 640);
     EXPECT_EQ(image.rows, 480);
@@ -168,22 +177,26 @@ TEST_F(GraspsApiTest, OverlayPngHasTheImageSize) {
 
 TEST_F(GraspsApiTest, TruncatedNpyIsA4xxWithAClearMessage) {
   const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
-  const auto header_cut = server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy.substr(0, 40), "d.npy"}}));
+  const auto header_cut =
+      server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy.substr(0, 40), "d.npy"}}));
   ExpectError(header_cut, 400, "depth");
-  const auto data_cut = server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy.substr(0, 5000), "d.npy"}}));
+  const auto data_cut =
+      server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy.substr(0, 5000), "d.npy"}}));
   ExpectError(data_cut, 400, "depth");
 }
 
 TEST_F(GraspsApiTest, EightBitPngIsUnsupported) {
   const cv::Mat1b eight(48, 64, uint8_t{100});
-  const auto reply = server_->Send(MultipartRequest("/v1/grasps", {{"depth", io::EncodePng(eight), "d.png"}}));
+  const auto reply =
+      server_->Send(MultipartRequest("/v1/grasps", {{"depth", io::EncodePng(eight), "d.png"}}));
   const json body = ExpectError(reply, 415, "depth");
   EXPECT_NE(body["error"]["message"].get<std::string>().find("16-bit"), std::string::npos);
 }
 
 TEST_F(GraspsApiTest, AllMissingDepthIsUnprocessable) {
   const cv::Mat1f zeros(48, 64, 0.0f);
-  const auto reply = server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", io::EncodeNpy(zeros)));
+  const auto reply =
+      server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", io::EncodeNpy(zeros)));
   ExpectError(reply, 422);
 }
 
@@ -193,26 +206,45 @@ TEST_F(GraspsApiTest, MissingDepthPartNamesTheField) {
 
 TEST_F(GraspsApiTest, BadParametersNameTheirField) {
   const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"top_k", "0", ""}})), 400, "top_k");
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"fx", "abc", ""}, {"fy", "1", ""}, {"cx", "1", ""}, {"cy", "1", ""}})), 400, "fx");
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"fx", "500", ""}})), 400, "fx");
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"colour", "red", ""}})), 400, "colour");
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"strategy", "stiffness", ""}})), 400, "strategy");
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", "{\"_fx\": 1}", "p.intr"}})), 400);
-  ExpectError(server_->Send(RawRequest("POST", "/v1/grasps", "text/plain", "hello")), 415, "Content-Type");
+  ExpectError(
+      server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"top_k", "0", ""}})),
+      400, "top_k");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"},
+                                                            {"fx", "abc", ""},
+                                                            {"fy", "1", ""},
+                                                            {"cx", "1", ""},
+                                                            {"cy", "1", ""}})),
+              400, "fx");
+  ExpectError(
+      server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"fx", "500", ""}})),
+      400, "fx");
+  ExpectError(server_->Send(
+                  MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"colour", "red", ""}})),
+              400, "colour");
+  ExpectError(server_->Send(MultipartRequest(
+                  "/v1/grasps", {{"depth", npy, "d.npy"}, {"strategy", "stiffness", ""}})),
+              400, "strategy");
+  ExpectError(
+      server_->Send(MultipartRequest(
+          "/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", "{\"_fx\": 1}", "p.intr"}})),
+      400);
+  ExpectError(server_->Send(RawRequest("POST", "/v1/grasps", "text/plain", "hello")), 415,
+              "Content-Type");
 }
 
 // GQ-CNN's segmask on the real clutter frame: the heap's mask without a disc around the best
 // unmasked grasp. No grasp may close there any more, and every grasp closes on the mask: its
-// centre lies within half an opening of a mask pixel (a grasp around a ring may centre in its hole).
+// centre lies within half an opening of a mask pixel (a grasp around a ring may centre in its
+// hole).
 TEST_F(GraspsApiTest, SegmaskRestrictsGraspsToTheMaskedRegion) {
   const std::string npy = ReadFileBytes(TestData("gqcnn/phoxi/clutter_depth_0.npy"));
   const std::string intr = ReadFileBytes(TestData("gqcnn/phoxi/phoxi.intr"));
-  const auto unmasked = server_->Send(MultipartRequest(
-      "/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", intr, "p.intr"}}));
+  const auto unmasked = server_->Send(
+      MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", intr, "p.intr"}}));
   ASSERT_EQ(unmasked.status, 200) << unmasked.body;
   const json best = json::parse(unmasked.body)["grasps"].at(0);
-  const cv::Point2d taken(best["center_px"]["u"].get<double>(), best["center_px"]["v"].get<double>());
+  const cv::Point2d taken(best["center_px"]["u"].get<double>(),
+                          best["center_px"]["v"].get<double>());
 
   cv::Mat1b mask = cv::imread(TestData("gqcnn/phoxi/clutter_segmask_0.png"), cv::IMREAD_GRAYSCALE);
   ASSERT_FALSE(mask.empty());
@@ -222,9 +254,11 @@ TEST_F(GraspsApiTest, SegmaskRestrictsGraspsToTheMaskedRegion) {
   cv::Mat1f distance_to_mask;
   cv::distanceTransform(mask == 0, distance_to_mask, cv::DIST_L2, 5);
 
-  const auto reply = server_->Send(MultipartRequest(
-      "/v1/grasps", {{"depth", npy, "d.npy"}, {"intrinsics", intr, "p.intr"},
-                     {"segmask", io::EncodePng(mask), "mask.png"}, {"top_k", "10", ""}}));
+  const auto reply =
+      server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"},
+                                                    {"intrinsics", intr, "p.intr"},
+                                                    {"segmask", io::EncodePng(mask), "mask.png"},
+                                                    {"top_k", "10", ""}}));
   ASSERT_EQ(reply.status, 200) << reply.body;
   const json body = json::parse(reply.body);
   EXPECT_EQ(body["contact_region"]["segmask"], true);
@@ -234,8 +268,9 @@ TEST_F(GraspsApiTest, SegmaskRestrictsGraspsToTheMaskedRegion) {
     const double half_opening_px = g["opening_px"].get<double>() / 2;
     EXPECT_GT(cv::norm(c - taken), kHoleRadiusPx - half_opening_px)
         << "grasp at (" << c.x << ", " << c.y << ") closes inside the removed disc";
-    EXPECT_LE(distance_to_mask(static_cast<int>(std::lround(c.y)), static_cast<int>(std::lround(c.x))),
-              half_opening_px)
+    EXPECT_LE(
+        distance_to_mask(static_cast<int>(std::lround(c.y)), static_cast<int>(std::lround(c.x))),
+        half_opening_px)
         << "grasp at (" << c.x << ", " << c.y << ") is off the mask";
   }
 }
@@ -251,7 +286,8 @@ TEST_F(GraspsApiTest, MinDepthKeepsGraspsOffNearSurfaces) {
       "/v1/grasps", {{"depth", npy, "d.npy"}, {"min_depth_m", std::to_string(z + 0.05), ""}}));
   ASSERT_EQ(limited.status, 200) << limited.body;
   const json body = json::parse(limited.body);
-  EXPECT_DOUBLE_EQ(body["contact_region"]["min_depth_m"].get<double>(), std::stod(std::to_string(z + 0.05)));
+  EXPECT_DOUBLE_EQ(body["contact_region"]["min_depth_m"].get<double>(),
+                   std::stod(std::to_string(z + 0.05)));
   for (const json& g : body["grasps"]) {
     EXPECT_GE(g["pose"]["position_m"][2].get<double>() + 0.02, z + 0.05)
         << "a grasp closes on a surface nearer than min_depth_m";
@@ -266,12 +302,24 @@ TEST_F(GraspsApiTest, MinDepthKeepsGraspsOffNearSurfaces) {
 TEST_F(GraspsApiTest, BadSegmasksAndMinDepthsNameTheirField) {
   const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
   const cv::Mat1b small(48, 64, uint8_t{255});
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", io::EncodePng(small), "m.png"}})), 422, "segmask");
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", "GIF89a", "m.gif"}})), 415, "segmask");
+  ExpectError(
+      server_->Send(MultipartRequest(
+          "/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", io::EncodePng(small), "m.png"}})),
+      422, "segmask");
+  ExpectError(server_->Send(MultipartRequest(
+                  "/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", "GIF89a", "m.gif"}})),
+              415, "segmask");
   const std::string mask = io::EncodePng(cv::Mat1b(480, 640, uint8_t{255}));
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"segmask", mask.substr(0, mask.size() / 2), "m.png"}})), 400, "segmask");
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"min_depth_m", "-0.1", ""}})), 400, "min_depth_m");
-  ExpectError(server_->Send(MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"}, {"min_depth_m", "near", ""}})), 400, "min_depth_m");
+  ExpectError(server_->Send(MultipartRequest(
+                  "/v1/grasps", {{"depth", npy, "d.npy"},
+                                 {"segmask", mask.substr(0, mask.size() / 2), "m.png"}})),
+              400, "segmask");
+  ExpectError(server_->Send(MultipartRequest(
+                  "/v1/grasps", {{"depth", npy, "d.npy"}, {"min_depth_m", "-0.1", ""}})),
+              400, "min_depth_m");
+  ExpectError(server_->Send(MultipartRequest(
+                  "/v1/grasps", {{"depth", npy, "d.npy"}, {"min_depth_m", "near", ""}})),
+              400, "min_depth_m");
 }
 
 TEST_F(GraspsApiTest, IntrinsicsOfAnotherImageSizeAreRefused) {
@@ -287,7 +335,8 @@ TEST(GraspsApiLimitsTest, ImagesOverThePixelLimitAreRefusedBeforeDecoding) {
   config.max_image_pixels = 640 * 480 - 1;
   RunningServer server(config);
   const auto reply = server.Send(MultipartRequest(
-      "/v1/grasps", {{"depth", ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy")), "d.npy"}}));
+      "/v1/grasps",
+      {{"depth", ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy")), "d.npy"}}));
   ExpectError(reply, 413, "depth");
 }
 
@@ -295,7 +344,8 @@ TEST(GraspsApiLimitsTest, BodiesOverTheByteLimitGet413) {
   config::ServiceConfig config;
   config.server.limits.max_body_bytes = 1000;
   RunningServer server(config);
-  const auto reply = server.Send(RawRequest("POST", "/v1/grasps", "application/x-npy", std::string(5000, 'x')));
+  const auto reply =
+      server.Send(RawRequest("POST", "/v1/grasps", "application/x-npy", std::string(5000, 'x')));
   EXPECT_EQ(reply.status, 413);
 }
 

@@ -62,8 +62,7 @@ TEST(OpenApiContractTest, ResponsesMatchTheirSchemas) {
       "/v1/grasps",
       {{"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
         "d.npy"},
-       {"intrinsics",
-        testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
+       {"intrinsics", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
         "p.intr"}}));
   ASSERT_EQ(grasps.status, 200) << grasps.body;
   const json grasps_body = json::parse(grasps.body);
@@ -77,12 +76,13 @@ TEST(OpenApiContractTest, ResponsesMatchTheirSchemas) {
   EXPECT_EQ(validator.Validate(json::parse(bad.body), schema_of("/v1/grasps", "post", "415")),
             std::vector<std::string>{});
 
-  const auto fractal = server.Send(testing::RawRequest(
-      "POST", "/v1/fractals", "application/json", R"({"seed": 3, "points": 4000, "format": "json"})"));
+  const auto fractal =
+      server.Send(testing::RawRequest("POST", "/v1/fractals", "application/json",
+                                      R"({"seed": 3, "points": 4000, "format": "json"})"));
   ASSERT_EQ(fractal.status, 200) << fractal.body;
-  EXPECT_EQ(validator.Validate(json::parse(fractal.body),
-                               spec["components"]["schemas"]["FractalStats"]),
-            std::vector<std::string>{});
+  EXPECT_EQ(
+      validator.Validate(json::parse(fractal.body), spec["components"]["schemas"]["FractalStats"]),
+      std::vector<std::string>{});
 
   // Errors from the HTTP layer (unknown route) have the same shape.
   const auto missing = server.Send(testing::RawRequest("GET", "/nope"));
@@ -96,20 +96,17 @@ TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
   const SchemaValidator validator(spec);
   const auto upload = [] {
     return std::vector<testing::FormPart>{
-        {"depth",
-         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
+        {"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
          "d.npy"},
         {"intrinsics",
-         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
-         "p.intr"}};
+         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")), "p.intr"}};
   };
   const json& error_schema = spec["components"]["schemas"]["Error"];
   testing::RunningServer with_model({}, nullptr, nullptr, testing::ShippedStiffnessModel());
 
   const auto info = with_model.Send(testing::RawRequest("GET", "/v1/info"));
   ASSERT_EQ(info.status, 200);
-  EXPECT_EQ(validator.Validate(json::parse(info.body),
-                               spec["components"]["schemas"]["Info"]),
+  EXPECT_EQ(validator.Validate(json::parse(info.body), spec["components"]["schemas"]["Info"]),
             std::vector<std::string>{});
   const auto grasps = with_model.Send(testing::MultipartRequest("/v1/grasps", upload()));
   ASSERT_EQ(grasps.status, 200) << grasps.body;
@@ -119,9 +116,11 @@ TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
             std::vector<std::string>{});
 
   const json& stiffness_200 = spec["paths"]["/v1/stiffness"]["post"]["responses"]["200"];
-  for (const auto& [format, type] : std::vector<std::pair<std::string, std::string>>{
-           {"png8", "image/png"}, {"png16", "image/png"}, {"npy", "application/x-npy"},
-           {"color", "image/png"}}) {
+  for (const auto& [format, type] :
+       std::vector<std::pair<std::string, std::string>>{{"png8", "image/png"},
+                                                        {"png16", "image/png"},
+                                                        {"npy", "application/x-npy"},
+                                                        {"color", "image/png"}}) {
     auto parts = upload();
     parts.push_back({"format", format, ""});
     const auto reply = with_model.Send(testing::MultipartRequest("/v1/stiffness", parts));
@@ -129,7 +128,8 @@ TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
     EXPECT_EQ(reply.header("Content-Type").value_or(""), type) << format;
     EXPECT_TRUE(stiffness_200["content"].contains(type)) << type;
   }
-  const auto bad = with_model.Send(testing::MultipartRequest("/v1/stiffness", {{"format", "gif", ""}}));
+  const auto bad =
+      with_model.Send(testing::MultipartRequest("/v1/stiffness", {{"format", "gif", ""}}));
   EXPECT_EQ(bad.status, 400);
   EXPECT_EQ(validator.Validate(json::parse(bad.body), error_schema), std::vector<std::string>{});
 
@@ -147,12 +147,10 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
   const json& error_schema = spec["components"]["schemas"]["Error"];
   const auto upload = [](std::vector<testing::FormPart> extra = {}) {
     std::vector<testing::FormPart> parts{
-        {"depth",
-         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
+        {"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
          "d.npy"},
         {"intrinsics",
-         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
-         "p.intr"}};
+         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")), "p.intr"}};
     parts.insert(parts.end(), extra.begin(), extra.end());
     return parts;
   };
@@ -167,26 +165,26 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
   ASSERT_EQ(segmented.status, 200) << segmented.body;
   const json body = json::parse(segmented.body);
   ASSERT_FALSE(body["instances"].empty());
-  EXPECT_EQ(validator.Validate(body, validator.Resolve(operation["responses"]["200"])["content"]
-                                                      ["application/json"]["schema"]),
+  EXPECT_EQ(validator.Validate(
+                body, validator.Resolve(
+                          operation["responses"]["200"])["content"]["application/json"]["schema"]),
             std::vector<std::string>{});
   // The documented example is a valid answer too.
-  EXPECT_EQ(validator.Validate(operation["responses"]["200"]["content"]["application/json"]
-                                        ["example"],
-                               spec["components"]["schemas"]["SegmentationResponse"]),
-            std::vector<std::string>{});
+  EXPECT_EQ(
+      validator.Validate(operation["responses"]["200"]["content"]["application/json"]["example"],
+                         spec["components"]["schemas"]["SegmentationResponse"]),
+      std::vector<std::string>{});
   for (const char* format : {"labels", "overlay"}) {
     const auto reply = server.Send(
         testing::MultipartRequest("/v1/segmentation", upload({{"format", format, ""}})));
     EXPECT_EQ(reply.status, 200) << format;
     EXPECT_EQ(reply.header("Content-Type").value_or(""), "image/png") << format;
   }
-  for (const auto& [extra, status] : std::vector<std::pair<testing::FormPart, int>>{
-           {{"method", "model", ""}, 503},
-           {{"format", "deformability", ""}, 503},
-           {{"format", "gif", ""}, 400}}) {
-    const auto reply =
-        server.Send(testing::MultipartRequest("/v1/segmentation", upload({extra})));
+  for (const auto& [extra, status] :
+       std::vector<std::pair<testing::FormPart, int>>{{{"method", "model", ""}, 503},
+                                                      {{"format", "deformability", ""}, 503},
+                                                      {{"format", "gif", ""}, 400}}) {
+    const auto reply = server.Send(testing::MultipartRequest("/v1/segmentation", upload({extra})));
     EXPECT_EQ(reply.status, status) << extra.name << "=" << extra.data;
     EXPECT_EQ(validator.Validate(json::parse(reply.body), error_schema),
               std::vector<std::string>{});
@@ -194,8 +192,8 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
   }
 
   // Grasps with their instances, and with a target.
-  for (const auto& extra : std::vector<testing::FormPart>{{"instances", "true", ""},
-                                                         {"target", "1", ""}}) {
+  for (const auto& extra :
+       std::vector<testing::FormPart>{{"instances", "true", ""}, {"target", "1", ""}}) {
     const auto grasps = server.Send(testing::MultipartRequest("/v1/grasps", upload({extra})));
     ASSERT_EQ(grasps.status, 200) << grasps.body;
     const json grasps_body = json::parse(grasps.body);
@@ -203,8 +201,8 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
     EXPECT_EQ(validator.Validate(grasps_body, spec["components"]["schemas"]["GraspResponse"]),
               std::vector<std::string>{});
   }
-  const auto unknown = server.Send(
-      testing::MultipartRequest("/v1/grasps", upload({{"target", "999", ""}})));
+  const auto unknown =
+      server.Send(testing::MultipartRequest("/v1/grasps", upload({{"target", "999", ""}})));
   EXPECT_EQ(unknown.status, 422);
   EXPECT_EQ(validator.Validate(json::parse(unknown.body), error_schema),
             std::vector<std::string>{});
@@ -226,12 +224,10 @@ TEST(OpenApiContractTest, DeformabilityAnswersMatchTheirSchemas) {
   for (const char* policy : {"highest", "least_deformable"}) {
     const auto grasps = server.Send(testing::MultipartRequest(
         "/v1/grasps",
-        {{"depth",
-          testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
+        {{"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
           "d.npy"},
          {"intrinsics",
-          testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
-          "p.intr"},
+          testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")), "p.intr"},
          {"target_policy", policy, ""}}));
     ASSERT_EQ(grasps.status, 200) << grasps.body;
     const json body = json::parse(grasps.body);

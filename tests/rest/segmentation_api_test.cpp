@@ -143,8 +143,7 @@ class SegmentationApiTest : public ::testing::Test {
     delete server_;
     server_ = nullptr;
   }
-  static HttpReply Segment(const std::vector<FormPart>& parts,
-                           const std::string& query = "") {
+  static HttpReply Segment(const std::vector<FormPart>& parts, const std::string& query = "") {
     return server_->Send(MultipartRequest("/v1/segmentation" + query, parts));
   }
   static cv::Mat1w Labels(const Frame& f) {
@@ -194,14 +193,14 @@ TEST_F(SegmentationApiTest, PclFindsEveryBoxAtItsTopCentre) {
     double best = 1e9;
     const softgrasp::testing::Box* nearest = nullptr;
     for (const auto& box : f.spec.boxes) {
-      const cv::Point3d top = softgrasp::testing::TableToCamera(f.spec, box.x_m, box.y_m,
-                                                                box.height_m);
+      const cv::Point3d top =
+          softgrasp::testing::TableToCamera(f.spec, box.x_m, box.y_m, box.height_m);
       const double d = std::hypot(c[0] - top.x, c[1] - top.y, c[2] - top.z);
       if (d < best) best = d, nearest = &box;
     }
     ASSERT_NE(nearest, nullptr);
-    EXPECT_LT(best, 0.01) << "instance " << inst["id"] << " centroid " << c[0] << " " << c[1]
-                          << " " << c[2];
+    EXPECT_LT(best, 0.01) << "instance " << inst["id"] << " centroid " << c[0] << " " << c[1] << " "
+                          << c[2];
     EXPECT_NEAR(inst["top_height_m"].get<double>(), nearest->height_m, 0.004);
     matched_boxes.insert(nearest->id);
   }
@@ -269,7 +268,7 @@ TEST_F(SegmentationApiTest, BadDepthGetsExactlyWhatGraspsGives) {
   const std::string truncated = Boxes().npy.substr(0, 200);
   const std::vector<std::pair<std::string, std::string>> bodies = {
       {"application/x-npy", truncated},
-      {"application/x-npy", io::EncodeNpy(zeros)},  // all missing: nothing to fit
+      {"application/x-npy", io::EncodeNpy(zeros)},                // all missing: nothing to fit
       {"image/png", io::EncodePng(cv::Mat1b(10, 10, uchar{7}))},  // 8-bit PNG
       {"application/x-npy", "not npy"},
       {"text/plain", "hello"},
@@ -300,8 +299,8 @@ TEST_F(SegmentationApiTest, ModelMethodWithoutAModelIsUnavailable) {
   ExpectError(Segment(Upload(Boxes(), {{"format", "deformability", ""}})), 503, "format");
   // The same rules on /v1/grasps.
   ExpectError(server_->Send(MultipartRequest(
-                  "/v1/grasps", Upload(Boxes(), {{"instances", "true", ""},
-                                                 {"segmentation", "model", ""}}))),
+                  "/v1/grasps",
+                  Upload(Boxes(), {{"instances", "true", ""}, {"segmentation", "model", ""}}))),
               503, "segmentation");
   // Info says what serves.
   const json info = json::parse(server_->Send(RawRequest("GET", "/v1/info")).body);
@@ -324,8 +323,8 @@ TEST_F(SegmentationApiTest, DefaultGraspsCarryNoInstancesAndDoNotSegment) {
 TEST_F(SegmentationApiTest, GraspsReportTheInstanceUnderTheirCentre) {
   const Frame& f = Boxes();
   const cv::Mat1w labels = Labels(f);
-  const json body = ParseOk(server_->Send(MultipartRequest(
-      "/v1/grasps", Upload(f, {{"instances", "true", ""}, {"top_k", "10", ""}}))));
+  const json body = ParseOk(server_->Send(
+      MultipartRequest("/v1/grasps", Upload(f, {{"instances", "true", ""}, {"top_k", "10", ""}}))));
   EXPECT_EQ(body["segmentation"]["source"], "pcl");
   EXPECT_EQ(body["segmentation"]["instances"], 3);
   EXPECT_TRUE(body["timing_ms"]["segmentation"].is_number());
@@ -394,9 +393,8 @@ TEST_F(SegmentationApiTest, BadTargetsAndLabelsNameTheirField) {
   ExpectError(server_->Send(MultipartRequest("/v1/grasps", Upload(f, {{"instances", "yes", ""}}))),
               400, "instances");
   const Frame table = MakeFrame(softgrasp::testing::SceneSpec{});
-  ExpectError(
-      server_->Send(MultipartRequest("/v1/grasps", Upload(table, {{"target", "1", ""}}))), 422,
-      "target");
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", Upload(table, {{"target", "1", ""}}))),
+              422, "target");
   const std::string small = io::EncodePng(cv::Mat1w(10, 10, std::uint16_t{1}));
   ExpectError(
       server_->Send(MultipartRequest("/v1/grasps", Upload(f, {{"labels", small, "l.png"}}))), 422,
@@ -405,21 +403,21 @@ TEST_F(SegmentationApiTest, BadTargetsAndLabelsNameTheirField) {
                   "/v1/grasps",
                   Upload(f, {{"labels", io::EncodePng(cv::Mat1b(480, 640, uchar{1})), "l.png"}}))),
               415, "labels");
-  ExpectError(server_->Send(MultipartRequest(
-                  "/v1/grasps", Upload(f, {{"labels", f.npy, "l.npy"}}))),
-              415, "labels");
+  ExpectError(
+      server_->Send(MultipartRequest("/v1/grasps", Upload(f, {{"labels", f.npy, "l.npy"}}))), 415,
+      "labels");
 }
 
 // ---- configuration ----
 
 TEST_F(SegmentationApiTest, DeformabilityStrategyNeedsTheSegmentationModel) {
   const Frame& f = Boxes();
-  ExpectError(server_->Send(MultipartRequest(
-                  "/v1/grasps", Upload(f, {{"strategy", "deformability", ""}}))),
-              400, "strategy");
-  ExpectError(server_->Send(MultipartRequest(
-                  "/v1/grasps", Upload(f, {{"overlay", "deformability", ""}}))),
-              400, "overlay");
+  ExpectError(
+      server_->Send(MultipartRequest("/v1/grasps", Upload(f, {{"strategy", "deformability", ""}}))),
+      400, "strategy");
+  ExpectError(
+      server_->Send(MultipartRequest("/v1/grasps", Upload(f, {{"overlay", "deformability", ""}}))),
+      400, "overlay");
   const json info = json::parse(server_->Send(RawRequest("GET", "/v1/info")).body);
   EXPECT_EQ(info["strategies"], json({"fge"}));
   EXPECT_EQ(info["default_strategy"], "fge");
@@ -435,15 +433,18 @@ TEST(SegmentationModelConfigTest, FileEnvironmentAndFlagSetTheModel) {
             "models.segmentation");
   ::setenv("SOFTGRASP_SEGMENTATION_MODEL", "none", 1);
   EXPECT_EQ(config::ParseCommandLine({}).value().config.segmentation_model, "none");
-  EXPECT_EQ(config::ParseCommandLine({"--segmentation-model", "/f.pt"}).value().config.segmentation_model,
-            "/f.pt");
+  EXPECT_EQ(
+      config::ParseCommandLine({"--segmentation-model", "/f.pt"}).value().config.segmentation_model,
+      "/f.pt");
   ::unsetenv("SOFTGRASP_SEGMENTATION_MODEL");
-  EXPECT_EQ(config::ParseCommandLine({}).value().config.segmentation_model, "");  // main picks the default
+  EXPECT_EQ(config::ParseCommandLine({}).value().config.segmentation_model,
+            "");  // main picks the default
   EXPECT_FALSE(config::ParseCommandLine({"--segmentation-model"}).ok());
-  EXPECT_EQ(json::parse(config::ConfigToJson(
-                config::ParseCommandLine({"--segmentation-model", "/m"}).value().config))["models"]
-                                                                                 ["segmentation"],
-            "/m");
+  EXPECT_EQ(
+      json::parse(config::ConfigToJson(
+          config::ParseCommandLine({"--segmentation-model", "/m"}).value().config))["models"]
+                                                                                   ["segmentation"],
+      "/m");
 }
 
 TEST(SegmentationModelConfigTest, DefaultIsTheShippedModelNextToTheExecutableElseNone) {
@@ -454,9 +455,11 @@ TEST(SegmentationModelConfigTest, DefaultIsTheShippedModelNextToTheExecutableEls
     fs::create_directories(file.parent_path());
     std::ofstream(file) << "x";
   };
-  EXPECT_EQ(config::DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()), "none");
+  EXPECT_EQ(config::DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()),
+            "none");
   touch(prefix / "models" / "pix2stiffness.pt");  // the other model does not count
-  EXPECT_EQ(config::DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()), "none");
+  EXPECT_EQ(config::DefaultSegmentationModel((prefix / "service" / "softgrasp-server").string()),
+            "none");
   touch(prefix / "share" / "softgrasp" / "models" / "segmentation.pt");
   EXPECT_EQ(config::DefaultSegmentationModel((prefix / "bin" / "softgrasp-server").string()),
             (prefix / "share" / "softgrasp" / "models" / "segmentation.pt").string());
@@ -500,21 +503,26 @@ TEST(SegmentationApiModelTest, ModelAnswersWithDeformability) {
     EXPECT_LE(inst["mean_deformability"].get<double>(), 1.0);
   }
   for (const char* encoding : {"png8", "png16", "npy", "color"}) {
-    const auto map = server.Send(MultipartRequest(
-        "/v1/segmentation",
-        Upload(f, {{"format", "deformability", ""}, {"encoding", encoding, ""}})));
+    const auto map = server.Send(
+        MultipartRequest("/v1/segmentation",
+                         Upload(f, {{"format", "deformability", ""}, {"encoding", encoding, ""}})));
     EXPECT_EQ(map.status, 200) << encoding << map.body;
   }
-  const cv::Mat png8 = DecodePng(server.Send(MultipartRequest(
-      "/v1/segmentation", Upload(f, {{"format", "deformability", ""}}))).body);
+  const cv::Mat png8 = DecodePng(
+      server
+          .Send(MultipartRequest("/v1/segmentation", Upload(f, {{"format", "deformability", ""}})))
+          .body);
   ASSERT_EQ(png8.type(), CV_8UC1);
   EXPECT_EQ(png8.size(), cv::Size(640, 480));
   // The PCL baseline still serves on request.
-  EXPECT_EQ(server.Send(MultipartRequest("/v1/segmentation", Upload(f, {{"method", "pcl", ""}})))
-                .status,
-            200);
-  const json grasps = json::parse(server.Send(MultipartRequest(
-      "/v1/grasps", Upload(f, {{"instances", "true", ""}, {"strategy", "fge", ""}}))).body);
+  EXPECT_EQ(
+      server.Send(MultipartRequest("/v1/segmentation", Upload(f, {{"method", "pcl", ""}}))).status,
+      200);
+  const json grasps = json::parse(
+      server
+          .Send(MultipartRequest("/v1/grasps",
+                                 Upload(f, {{"instances", "true", ""}, {"strategy", "fge", ""}})))
+          .body);
   EXPECT_EQ(grasps["segmentation"]["source"], "model");
   for (const json& g : grasps["grasps"]) {
     if (g["instance_id"].get<int>() > 0) {
@@ -541,10 +549,10 @@ TEST(SegmentationApiModelTest, DeformabilityStrategyGraspsOneTarget) {
   ASSERT_EQ(labels_png.status, 200);
   const cv::Mat1w labels = DecodePng(labels_png.body);
   for (const std::string policy : {"highest", "least_deformable"}) {
-    const json body = ParseOk(server.Send(MultipartRequest(
-        "/v1/grasps", Upload(f, {{"labels", labels_png.body, "l.png"},
-                                 {"target_policy", policy, ""},
-                                 {"top_k", "3", ""}}))));
+    const json body = ParseOk(
+        server.Send(MultipartRequest("/v1/grasps", Upload(f, {{"labels", labels_png.body, "l.png"},
+                                                              {"target_policy", policy, ""},
+                                                              {"top_k", "3", ""}}))));
     EXPECT_EQ(body["strategy"], "deformability");
     EXPECT_EQ(body["target"]["policy"], policy);
     ASSERT_TRUE(body["target"]["id"].is_number()) << body.dump();
@@ -571,14 +579,15 @@ TEST(SegmentationApiModelTest, DeformabilityStrategyGraspsOneTarget) {
     }
   }
   // An explicit target wins; the model segments when no labels are given.
-  const int box3 = labels(static_cast<int>(std::lround(
-                              softgrasp::testing::ProjectTablePoint(f.spec, 0.02, 0.10, 0.03).y)),
-                          static_cast<int>(std::lround(
-                              softgrasp::testing::ProjectTablePoint(f.spec, 0.02, 0.10, 0.03).x)));
+  const int box3 =
+      labels(static_cast<int>(
+                 std::lround(softgrasp::testing::ProjectTablePoint(f.spec, 0.02, 0.10, 0.03).y)),
+             static_cast<int>(
+                 std::lround(softgrasp::testing::ProjectTablePoint(f.spec, 0.02, 0.10, 0.03).x)));
   ASSERT_GT(box3, 0);
   const json chosen = ParseOk(server.Send(MultipartRequest(
-      "/v1/grasps", Upload(f, {{"labels", labels_png.body, "l.png"},
-                               {"target", std::to_string(box3), ""}}))));
+      "/v1/grasps",
+      Upload(f, {{"labels", labels_png.body, "l.png"}, {"target", std::to_string(box3), ""}}))));
   EXPECT_EQ(chosen["target"]["id"], box3);
   for (const json& g : chosen["grasps"]) {
     EXPECT_EQ(ContactBoxes(f, g), std::set<int>{3}) << g.dump();
@@ -620,8 +629,9 @@ TEST(SegmentationApiModelTest, DeformabilityAnswersGraspsOnEveryRealFrame) {
            {"gqcnn/phoxi/clutter_depth_0.npy", "gqcnn/phoxi/phoxi.intr"}}) {
     SCOPED_TRACE(frame);
     const json body = ParseOk(server.Send(MultipartRequest(
-        "/v1/grasps", {{"depth", testing::ReadFileBytes(testing::TestData(frame)), "d.npy"},
-                       {"intrinsics", testing::ReadFileBytes(testing::TestData(intr)), "c.intr"}})));
+        "/v1/grasps",
+        {{"depth", testing::ReadFileBytes(testing::TestData(frame)), "d.npy"},
+         {"intrinsics", testing::ReadFileBytes(testing::TestData(intr)), "c.intr"}})));
     EXPECT_EQ(body["strategy"], "deformability");
     ASSERT_FALSE(body["grasps"].empty()) << body.dump();
     const bool fallback = body["target"]["fallback"];

@@ -13,10 +13,10 @@
 #include <utility>
 #include <vector>
 
+#include "service/config/config.h"
 #include "service/http/message.h"
 #include "service/http/server.h"
 #include "service/rest/api.h"
-#include "service/config/config.h"
 #include "tests/support/http_client.h"
 #include "tests/support/test_data.h"
 
@@ -68,8 +68,8 @@ inline std::string RawRequest(const std::string& method, const std::string& targ
 /// The shipped pix2stiffness model (models/pix2stiffness.pt), loaded once per test program.
 inline std::shared_ptr<const models::StiffnessModel> ShippedStiffnessModel() {
   static const std::shared_ptr<const models::StiffnessModel> model = [] {
-    auto loaded =
-        models::StiffnessModel::Load(std::string(SOFTGRASP_SOURCE_DIR) + "/models/pix2stiffness.pt");
+    auto loaded = models::StiffnessModel::Load(std::string(SOFTGRASP_SOURCE_DIR) +
+                                               "/models/pix2stiffness.pt");
     if (!loaded.ok()) throw std::runtime_error(loaded.error().message);
     return std::make_shared<const models::StiffnessModel>(std::move(loaded).value());
   }();
@@ -90,12 +90,11 @@ inline std::shared_ptr<const models::SegmentationModel> ShippedSegmentationModel
 /// A running server for one test.
 class RunningServer {
  public:
-  explicit RunningServer(config::ServiceConfig config = {},
-                         std::shared_ptr<robot::CommandTracker> robot = nullptr,
-                         std::function<void(const std::string&)> access_log = nullptr,
-                         std::shared_ptr<const models::StiffnessModel> stiffness_model = nullptr,
-                         std::shared_ptr<const models::SegmentationModel> segmentation_model =
-                             nullptr)
+  explicit RunningServer(
+      config::ServiceConfig config = {}, std::shared_ptr<robot::CommandTracker> robot = nullptr,
+      std::function<void(const std::string&)> access_log = nullptr,
+      std::shared_ptr<const models::StiffnessModel> stiffness_model = nullptr,
+      std::shared_ptr<const models::SegmentationModel> segmentation_model = nullptr)
       : config_(std::move(config)) {
     config_.server.host = "127.0.0.1";
     config_.server.port = 0;

@@ -42,7 +42,8 @@ const std::string& Intrinsics() {
 }
 
 std::vector<FormPart> Upload(std::vector<FormPart> fields = {}) {
-  std::vector<FormPart> parts = {{"depth", DepthNpy(), "d.npy"}, {"intrinsics", Intrinsics(), "p.intr"}};
+  std::vector<FormPart> parts = {{"depth", DepthNpy(), "d.npy"},
+                                 {"intrinsics", Intrinsics(), "p.intr"}};
   parts.insert(parts.end(), fields.begin(), fields.end());
   return parts;
 }
@@ -71,9 +72,9 @@ engine::Plan EnginePlan(engine::Strategy strategy, bool mean_stiffness = false) 
   engine::PlanOptions options;
   options.strategy = strategy;
   options.mean_stiffness = mean_stiffness;
-  auto plan = engine::PlanGrasps(Direct().depth, Direct().camera, options,
-                                 {testing::ShippedStiffnessModel(),
-                                  testing::ShippedSegmentationModel()});
+  auto plan =
+      engine::PlanGrasps(Direct().depth, Direct().camera, options,
+                         {testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel()});
   EXPECT_TRUE(plan.ok()) << plan.error().message;
   return plan.ok() ? std::move(plan).value() : engine::Plan{};
 }
@@ -173,12 +174,14 @@ TEST_F(StiffnessApiTest, WithoutAModelTheMapIsUnavailable) {
 }
 
 TEST_F(StiffnessApiTest, BadRequestsNameTheirField) {
-  ExpectError(with_model_->Send(MultipartRequest("/v1/stiffness", Upload({{"format", "jpeg", ""}}))),
-              400, "format");
+  ExpectError(
+      with_model_->Send(MultipartRequest("/v1/stiffness", Upload({{"format", "jpeg", ""}}))), 400,
+      "format");
   ExpectError(with_model_->Send(MultipartRequest("/v1/stiffness", Upload({{"top_k", "3", ""}}))),
               400, "top_k");
   ExpectError(with_model_->Send(MultipartRequest(
-                  "/v1/stiffness", Upload({{"segmask", io::EncodePng(cv::Mat1b(48, 64, uchar{255})), "m.png"}}))),
+                  "/v1/stiffness",
+                  Upload({{"segmask", io::EncodePng(cv::Mat1b(48, 64, uchar{255})), "m.png"}}))),
               400, "segmask");
   ExpectError(with_model_->Send(MultipartRequest("/v1/stiffness", {{"format", "npy", ""}})), 400,
               "depth");
@@ -188,8 +191,8 @@ TEST_F(StiffnessApiTest, BadRequestsNameTheirField) {
       RawRequest("POST", "/v1/stiffness", "application/x-npy", DepthNpy().substr(0, 100)));
   EXPECT_EQ(truncated.status / 100, 4) << truncated.body;
   const cv::Mat1f zeros(48, 64, 0.0f);
-  const auto empty =
-      with_model_->Send(RawRequest("POST", "/v1/stiffness", "application/x-npy", io::EncodeNpy(zeros)));
+  const auto empty = with_model_->Send(
+      RawRequest("POST", "/v1/stiffness", "application/x-npy", io::EncodeNpy(zeros)));
   EXPECT_EQ(empty.status, 422) << empty.body;
 }
 
@@ -254,9 +257,9 @@ TEST_F(StiffnessApiTest, WithoutAModelGraspsUseFgeAndReportNoStiffness) {
   EXPECT_TRUE(body["stiffness_model"].is_null());
   ASSERT_FALSE(body["grasps"].empty());
   EXPECT_TRUE(body["grasps"][0]["mean_stiffness"].is_null());
-  ExpectError(without_model_->Send(
-                  MultipartRequest("/v1/grasps", Upload({{"strategy", "stiffness", ""}}))),
-              400, "strategy");
+  ExpectError(
+      without_model_->Send(MultipartRequest("/v1/grasps", Upload({{"strategy", "stiffness", ""}}))),
+      400, "strategy");
   ExpectError(without_model_->Send(MultipartRequest(
                   "/v1/grasps", Upload({{"format", "png", ""}, {"overlay", "stiffness", ""}}))),
               400, "overlay");
@@ -265,17 +268,18 @@ TEST_F(StiffnessApiTest, WithoutAModelGraspsUseFgeAndReportNoStiffness) {
   ExpectError(without_model_->Send(
                   MultipartRequest("/v1/grasps", Upload({{"mean_stiffness", "true", ""}}))),
               400, "mean_stiffness");
-  ExpectError(with_model_->Send(
-                  MultipartRequest("/v1/grasps", Upload({{"mean_stiffness", "yes", ""}}))),
-              400, "mean_stiffness");
+  ExpectError(
+      with_model_->Send(MultipartRequest("/v1/grasps", Upload({{"mean_stiffness", "yes", ""}}))),
+      400, "mean_stiffness");
 }
 
 TEST_F(StiffnessApiTest, OverlayCanShowTheStiffnessMapUnderTheGrasps) {
   const auto map_only = with_model_->Send(MultipartRequest(
-      "/v1/grasps", Upload({{"format", "png", ""}, {"overlay", "stiffness", ""}, {"draw", "none", ""}})));
+      "/v1/grasps",
+      Upload({{"format", "png", ""}, {"overlay", "stiffness", ""}, {"draw", "none", ""}})));
   ASSERT_EQ(map_only.status, 200) << map_only.body;
-  const auto colour = with_model_->Send(
-      MultipartRequest("/v1/stiffness", Upload({{"format", "color", ""}})));
+  const auto colour =
+      with_model_->Send(MultipartRequest("/v1/stiffness", Upload({{"format", "color", ""}})));
   ASSERT_EQ(colour.status, 200);
   const cv::Mat background = DecodePng(map_only.body);
   EXPECT_EQ(cv::norm(background, DecodePng(colour.body), cv::NORM_INF), 0.0);
@@ -288,8 +292,9 @@ TEST_F(StiffnessApiTest, OverlayCanShowTheStiffnessMapUnderTheGrasps) {
   ASSERT_EQ(with_grasps.size(), background.size());
   // The best grasp's centre is drawn in green over the map.
   const json grasps = json::parse(with_model_->Send(MultipartRequest("/v1/grasps", Upload())).body);
-  const cv::Point centre(static_cast<int>(std::lround(grasps["grasps"][0]["center_px"]["u"].get<double>())),
-                         static_cast<int>(std::lround(grasps["grasps"][0]["center_px"]["v"].get<double>())));
+  const cv::Point centre(
+      static_cast<int>(std::lround(grasps["grasps"][0]["center_px"]["u"].get<double>())),
+      static_cast<int>(std::lround(grasps["grasps"][0]["center_px"]["v"].get<double>())));
   EXPECT_EQ(with_grasps.at<cv::Vec3b>(centre), cv::Vec3b(0, 255, 0));
   EXPECT_GT(cv::norm(with_grasps, background, cv::NORM_L1), 0.0);
 }
@@ -319,8 +324,9 @@ TEST(StiffnessModelConfigTest, ConfigFileEnvironmentAndFlag) {
             "/f.pt");
   ::unsetenv("SOFTGRASP_STIFFNESS_MODEL");
   EXPECT_FALSE(config::ParseCommandLine({"--stiffness-model"}).ok());
-  EXPECT_EQ(json::parse(config::ConfigToJson(config::ParseCommandLine({"--stiffness-model", "/m"}).value().config))
-                ["models"]["stiffness"],
+  EXPECT_EQ(json::parse(config::ConfigToJson(
+                config::ParseCommandLine({"--stiffness-model", "/m"}).value().config))["models"]
+                                                                                      ["stiffness"],
             "/m");
 }
 
@@ -333,7 +339,8 @@ TEST(StiffnessModelConfigTest, DefaultIsTheShippedModelNextToTheExecutable) {
     fs::create_directories(file.parent_path());
     std::ofstream(file) << "x";
   };
-  EXPECT_EQ(config::DefaultStiffnessModel((prefix / "service" / "softgrasp-server").string()), "none");
+  EXPECT_EQ(config::DefaultStiffnessModel((prefix / "service" / "softgrasp-server").string()),
+            "none");
   touch(prefix / "share" / "softgrasp" / "models" / "pix2stiffness.pt");
   EXPECT_EQ(config::DefaultStiffnessModel((prefix / "bin" / "softgrasp-server").string()),
             (prefix / "share" / "softgrasp" / "models" / "pix2stiffness.pt").string());
@@ -359,9 +366,9 @@ TEST(GraspsHandlerTest, EveryStrategyAnswersWhatTheEnginePlans) {
     engine::PlanOptions options;
     options.strategy = info.strategy;
     options.report_instances = true;
-    auto plan = engine::PlanGrasps(
-        Direct().depth, Direct().camera, options,
-        {testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel()});
+    auto plan =
+        engine::PlanGrasps(Direct().depth, Direct().camera, options,
+                           {testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel()});
     ASSERT_TRUE(plan.ok()) << plan.error().message;
     const auto& expected = plan.value().grasps;
     ASSERT_FALSE(expected.empty());

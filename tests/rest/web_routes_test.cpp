@@ -11,10 +11,10 @@
 #include <opencv2/imgproc.hpp>
 #include <string>
 
+#include "service/config/config.h"
 #include "service/http/static_files.h"
 #include "service/io/depth_codec.h"
 #include "service/io/overlay.h"
-#include "service/config/config.h"
 #include "tests/rest/server_fixture.h"
 #include "tests/support/temp_dir.h"
 
@@ -130,11 +130,12 @@ TEST(WebRootTest, ConfigFileEnvironmentAndFlag) {
 
   ::setenv("SOFTGRASP_WEB_ROOT", "/env/web", 1);
   EXPECT_EQ(config::ParseCommandLine({}).value().config.web_root, "/env/web");
-  EXPECT_EQ(config::ParseCommandLine({"--web-root", "/flag/web"}).value().config.web_root, "/flag/web");
+  EXPECT_EQ(config::ParseCommandLine({"--web-root", "/flag/web"}).value().config.web_root,
+            "/flag/web");
   ::unsetenv("SOFTGRASP_WEB_ROOT");
   EXPECT_FALSE(config::ParseCommandLine({"--web-root"}).ok());
-  EXPECT_EQ(json::parse(
-                config::ConfigToJson(config::ParseCommandLine({"--web-root", "/w"}).value().config))["web"]["root"],
+  EXPECT_EQ(json::parse(config::ConfigToJson(
+                config::ParseCommandLine({"--web-root", "/w"}).value().config))["web"]["root"],
             "/w");
 }
 

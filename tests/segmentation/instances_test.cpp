@@ -15,9 +15,7 @@ TEST(Compact, OrdersByScoreThenAreaAndDropsSmallIds) {
   labels(cv::Rect(5, 5, 4, 4)) = 300;  // 16 px, score 0.9
   labels(cv::Rect(0, 6, 2, 2)) = 5;    // 4 px, score 0.9 (ties 300 on score, smaller)
   labels(9, 9) = 9;                    // 1 px: dropped
-  const InstanceMasks m = Compact(labels, 2, [](int id) {
-    return id == 7 ? 0.2 : 0.9;
-  });
+  const InstanceMasks m = Compact(labels, 2, [](int id) { return id == 7 ? 0.2 : 0.9; });
   ASSERT_EQ(m.count(), 3);
   EXPECT_EQ(m.labels(6, 6), 1);  // old 300
   EXPECT_EQ(m.labels(7, 0), 2);  // old 5
@@ -30,8 +28,13 @@ TEST(Compact, OrdersByScoreThenAreaAndDropsSmallIds) {
 TEST(DescribeInstances, MatchesTheAnalyticBox) {
   testing::SceneSpec spec;
   spec.camera_height_m = 0.6;
-  spec.boxes = {{.x_m = 0.05, .y_m = -0.02, .size_x_m = 0.04, .size_y_m = 0.06,
-                 .height_m = 0.05, .yaw_rad = 0, .id = 1}};
+  spec.boxes = {{.x_m = 0.05,
+                 .y_m = -0.02,
+                 .size_x_m = 0.04,
+                 .size_y_m = 0.06,
+                 .height_m = 0.05,
+                 .yaw_rad = 0,
+                 .id = 1}};
   const testing::SyntheticScene synthetic = testing::RenderScene(spec);
   auto scene = core::Preprocess(synthetic.depth, synthetic.camera);
   ASSERT_TRUE(scene.ok());
@@ -70,7 +73,6 @@ TEST(DescribeInstances, RejectsMapsOfAnotherSize) {
   EXPECT_THROW(DescribeInstances(masks, scene.value(), synthetic.camera, cv::Mat1f(3, 3, 0.0f)),
                std::invalid_argument);
 }
-
 
 TEST(DropCutByBorder, DropsInstancesOnTheEdgeAndKeepsOrderAndScores) {
   InstanceMasks m;

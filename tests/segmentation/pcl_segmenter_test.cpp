@@ -110,10 +110,20 @@ testing::SceneSpec TableSpec(std::vector<testing::Box> boxes) {
 TEST(SegmentPclAnalytic, SeparatedBoxesGiveOneInstanceEach) {
   const auto spec = TableSpec({
       {.x_m = -0.10, .y_m = -0.06, .size_x_m = 0.04, .size_y_m = 0.08, .height_m = 0.05, .id = 1},
-      {.x_m = 0.08, .y_m = -0.05, .size_x_m = 0.06, .size_y_m = 0.05, .height_m = 0.03,
-       .yaw_rad = 0.5, .id = 2},
-      {.x_m = 0.0, .y_m = 0.08, .size_x_m = 0.03, .size_y_m = 0.10, .height_m = 0.02,
-       .yaw_rad = 1.2, .id = 3},
+      {.x_m = 0.08,
+       .y_m = -0.05,
+       .size_x_m = 0.06,
+       .size_y_m = 0.05,
+       .height_m = 0.03,
+       .yaw_rad = 0.5,
+       .id = 2},
+      {.x_m = 0.0,
+       .y_m = 0.08,
+       .size_x_m = 0.03,
+       .size_y_m = 0.10,
+       .height_m = 0.02,
+       .yaw_rad = 1.2,
+       .id = 3},
       {.x_m = 0.15, .y_m = 0.10, .size_x_m = 0.05, .size_y_m = 0.05, .height_m = 0.08, .id = 4},
   });
   const auto synthetic = testing::RenderScene(spec);
@@ -243,8 +253,8 @@ TEST_P(SegmentPclSimBin, NothingOnTheSupportAndObjectsFound) {
   }
   const double mean_best_iou = n == 0 ? 0.0 : sum / n;
   std::cout << "[ measured ] sim seed " << c.seed << ": " << n << " objects, " << masks.count()
-            << " instances, mean best IoU " << mean_best_iou << ", on support "
-            << support_fraction << "\n";
+            << " instances, mean best IoU " << mean_best_iou << ", on support " << support_fraction
+            << "\n";
   EXPECT_LT(support_fraction, 0.02);
   ASSERT_GT(n, 0);
   EXPECT_GE(mean_best_iou, c.min_mean_best_iou);
@@ -254,8 +264,7 @@ INSTANTIATE_TEST_SUITE_P(Scenes, SegmentPclSimBin,
                          // Measured mean best IoU: 0.92, 0.63 (two objects touch and merge),
                          // 0.85; dense: 0.37 (touching objects merge).
                          ::testing::Values(SimCase{3, 8, 101, 0.8}, SimCase{3, 8, 102, 0.5},
-                                           SimCase{3, 8, 103, 0.7},
-                                           SimCase{15, 30, 201, 0.25}));
+                                           SimCase{3, 8, 103, 0.7}, SimCase{15, 30, 201, 0.25}));
 
 // ---- real frames ----
 
@@ -281,9 +290,10 @@ RealResult SegmentReal(const std::string& depth_npy, const std::string& segmask_
   RealResult r;
   r.union_iou = Iou(predicted, segmask > 0);
   const int predicted_px = cv::countNonZero(predicted);
-  r.outside_fraction = predicted_px == 0 ? 0.0
-                                         : static_cast<double>(cv::countNonZero(
-                                               predicted & (segmask == 0))) / predicted_px;
+  r.outside_fraction =
+      predicted_px == 0
+          ? 0.0
+          : static_cast<double>(cv::countNonZero(predicted & (segmask == 0))) / predicted_px;
   r.count = masks.count();
   std::cout << "[ measured ] " << dump_name << ": " << r.count << " instances, union IoU "
             << r.union_iou << ", outside segmask " << r.outside_fraction << "\n";

@@ -30,11 +30,20 @@ core::DepthImage Make(cv::Size size, int kind, std::mt19937& rng) {
     for (int u = 0; u < size.width; ++u) {
       float& z = d.depth_m(v, u);
       switch (kind) {
-        case 0: break;                               // constant: a bare table
-        case 1: z += noise(rng); break;              // noise: no structure at all
-        case 2: if (missing(rng)) z = NAN; break;    // mostly missing
-        case 3: z = (u / 4 + v / 4) % 2 ? 0.5f : 0.6f; break;  // a 4 px checkerboard of blocks
-        default: z = 0.3f + 0.001f * u; break;       // a steep ramp
+        case 0:
+          break;  // constant: a bare table
+        case 1:
+          z += noise(rng);
+          break;  // noise: no structure at all
+        case 2:
+          if (missing(rng)) z = NAN;
+          break;  // mostly missing
+        case 3:
+          z = (u / 4 + v / 4) % 2 ? 0.5f : 0.6f;
+          break;  // a 4 px checkerboard of blocks
+        default:
+          z = 0.3f + 0.001f * u;
+          break;  // a steep ramp
       }
     }
   }
@@ -48,8 +57,11 @@ TEST(SegmentPclRobustness, OddImagesGiveWellFormedResults) {
                               cv::Size(16, 16), cv::Size(97, 31), cv::Size(320, 240)}) {
     for (int kind = 0; kind < 5; ++kind) {
       const core::DepthImage depth = Make(size, kind, rng);
-      core::Camera camera{.fx = 500, .fy = 500, .cx = (size.width - 1) / 2.0,
-                          .cy = (size.height - 1) / 2.0, .width = size.width,
+      core::Camera camera{.fx = 500,
+                          .fy = 500,
+                          .cx = (size.width - 1) / 2.0,
+                          .cy = (size.height - 1) / 2.0,
+                          .width = size.width,
                           .height = size.height};
       auto scene = core::Preprocess(depth, camera);
       if (!scene.ok()) continue;  // the service answers these 422 before segmenting

@@ -1,15 +1,16 @@
+#include "sim/fractal_batch.h"
+
+#include <gtest/gtest.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <string>
-
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "service/mesh/mesh_check.h"
 #include "service/mesh/mesh_io.h"
-#include "sim/fractal_batch.h"
 #include "tests/support/temp_dir.h"
 
 namespace softgrasp::sim {
@@ -66,8 +67,9 @@ TEST(SimCliTest, FractalsCommandIsDeterministic) {
   const fs::path a = FreshDir("cli_a"), b = FreshDir("cli_b");
   const std::string sim = SOFTGRASP_SIM_EXE;
   for (const auto& dir : {a, b}) {
-    const std::string cmd = sim + " fractals --count 3 --seed 5 --alpha 0.3 --points 3000 --format stl --out " +
-                            dir.string() + " > /dev/null";
+    const std::string cmd =
+        sim + " fractals --count 3 --seed 5 --alpha 0.3 --points 3000 --format stl --out " +
+        dir.string() + " > /dev/null";
     ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   }
   for (const char* file : {"index.json", "fractal_5.stl", "fractal_6.stl", "fractal_7.stl"}) {

@@ -33,8 +33,8 @@ struct HttpReply {
 };
 
 struct HttpClientOptions {
-  std::string host = "127.0.0.1";  ///< an IPv4 or IPv6 address ("::1")
-  const char* source_ip = nullptr;  ///< connect from this (IPv4 loopback) address when set
+  std::string host = "127.0.0.1";         ///< an IPv4 or IPv6 address ("::1")
+  const char* source_ip = nullptr;        ///< connect from this (IPv4 loopback) address when set
   std::chrono::seconds read_timeout{20};  ///< no read ever blocks longer than this
 };
 

@@ -94,7 +94,8 @@ SyntheticScene RenderScene(const SceneSpec& spec) {
         }
       }
       const bool hit = std::isfinite(t);
-      scene.depth.depth_m(v, u) = hit ? static_cast<float>(t) : std::numeric_limits<float>::quiet_NaN();
+      scene.depth.depth_m(v, u) =
+          hit ? static_cast<float>(t) : std::numeric_limits<float>::quiet_NaN();
       scene.object_id(v, u) = id;
       scene.height_m(v, u) = hit ? static_cast<float>(ray.origin.z + t * ray.dir.z)
                                  : std::numeric_limits<float>::quiet_NaN();
@@ -116,14 +117,14 @@ cv::Point2d ProjectTablePoint(const SceneSpec& spec, double x_m, double y_m, dou
 SceneSpec ClutterSceneSpec() {
   SceneSpec spec;
   spec.boxes = {
-      {-0.20, -0.12, 0.030, 0.080, 0.040, 0.3, 1},   // slim box, graspable across
-      {-0.05, -0.15, 0.060, 0.060, 0.070, 0.0, 2},   // wide and tall: not graspable
-      {0.15, -0.10, 0.025, 0.050, 0.055, 1.2, 3},    // small, rotated
-      {-0.15, 0.10, 0.040, 0.040, 0.030, 0.7, 4},    // low cube
-      {0.05, 0.12, 0.030, 0.040, 0.045, 0.0, 5},     // two boxes pressed together ...
-      {0.08, 0.12, 0.030, 0.040, 0.060, 0.0, 6},     // ... with different heights
-      {0.22, 0.12, 0.035, 0.090, 0.035, -0.4, 7},    // long, low
-      {0.00, 0.00, 0.045, 0.030, 0.050, 0.0, 8},     // in the middle
+      {-0.20, -0.12, 0.030, 0.080, 0.040, 0.3, 1},  // slim box, graspable across
+      {-0.05, -0.15, 0.060, 0.060, 0.070, 0.0, 2},  // wide and tall: not graspable
+      {0.15, -0.10, 0.025, 0.050, 0.055, 1.2, 3},   // small, rotated
+      {-0.15, 0.10, 0.040, 0.040, 0.030, 0.7, 4},   // low cube
+      {0.05, 0.12, 0.030, 0.040, 0.045, 0.0, 5},    // two boxes pressed together ...
+      {0.08, 0.12, 0.030, 0.040, 0.060, 0.0, 6},    // ... with different heights
+      {0.22, 0.12, 0.035, 0.090, 0.035, -0.4, 7},   // long, low
+      {0.00, 0.00, 0.045, 0.030, 0.050, 0.0, 8},    // in the middle
   };
   return spec;
 }
@@ -179,7 +180,8 @@ cv::Mat1f LoadNpyFloat32(const std::string& path) {
   }
   const int rows = shape[0];
   const int cols = shape[1];
-  const std::size_t data_bytes = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * 4;
+  const std::size_t data_bytes =
+      static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * 4;
   if (bytes.size() < data_offset + data_bytes) throw std::runtime_error(path + ": truncated");
   cv::Mat1f out(rows, cols);
   std::memcpy(out.data, bytes.data() + data_offset, data_bytes);  // little-endian host

@@ -8,10 +8,9 @@
 /// frame is mirrored with respect to a right-handed one; it keeps image and table directions
 /// identical.) Box yaw turns from +x towards +y, like Grasp::angle_rad turns from +u towards +v.
 
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "service/core/depth.h"
 
@@ -19,18 +18,18 @@ namespace softgrasp::testing {
 
 /// An upright box standing on the table.
 struct Box {
-  double x_m = 0;         ///< centre of the footprint on the table
+  double x_m = 0;  ///< centre of the footprint on the table
   double y_m = 0;
-  double size_x_m = 0.03; ///< footprint along the box's own x axis (before yaw)
+  double size_x_m = 0.03;  ///< footprint along the box's own x axis (before yaw)
   double size_y_m = 0.08;
   double height_m = 0.04;
-  double yaw_rad = 0;     ///< box x axis at this angle from table +x towards +y
-  int id = 1;             ///< written into SyntheticScene::object_id; must be > 0
+  double yaw_rad = 0;  ///< box x axis at this angle from table +x towards +y
+  int id = 1;          ///< written into SyntheticScene::object_id; must be > 0
 };
 
 struct SceneSpec {
-  core::Camera camera;                ///< intrinsics and image size (default 640 x 480, f 525)
-  double camera_height_m = 0.6;       ///< along the optical axis, to the table
+  core::Camera camera;           ///< intrinsics and image size (default 640 x 480, f 525)
+  double camera_height_m = 0.6;  ///< along the optical axis, to the table
   /// Table tilt: the table turns by this angle about the table x axis (image rows then see a
   /// depth gradient along v). 0 = table perpendicular to the optical axis.
   double table_tilt_rad = 0;
@@ -44,8 +43,8 @@ inline constexpr int kNothingId = -1;  ///< ray hits nothing (depth NaN)
 struct SyntheticScene {
   core::DepthImage depth;  ///< metres along the optical axis
   core::Camera camera;
-  cv::Mat1i object_id;     ///< kTableId, a Box::id, or kNothingId
-  cv::Mat1f height_m;      ///< exact height of each pixel's surface above the table
+  cv::Mat1i object_id;  ///< kTableId, a Box::id, or kNothingId
+  cv::Mat1f height_m;   ///< exact height of each pixel's surface above the table
 };
 
 SyntheticScene RenderScene(const SceneSpec& spec);

@@ -269,8 +269,8 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
   const std::string category = object ? object->object->category : "none";
   ObjectOutcomes& on_object = stats->by_object[category];
   ++on_object.grasps;
-  auto exec = sim::ExecuteGrasp(scene, raycaster, sim::SimGraspFromCamera(g, world_from_camera),
-                                gripper);
+  auto exec =
+      sim::ExecuteGrasp(scene, raycaster, sim::SimGraspFromCamera(g, world_from_camera), gripper);
   if (!exec.ok()) {
     ++stats->outcomes["error"];
     return;

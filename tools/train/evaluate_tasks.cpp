@@ -95,8 +95,8 @@ struct Planner {
 std::vector<Planner> Planners(bool stiffness_model) {
   std::vector<Planner> out = {{engine::Strategy::kFge, {}, "fge"}};
   if (stiffness_model) out.push_back({engine::Strategy::kStiffness, {}, "stiffness"});
-  out.push_back({engine::Strategy::kDeformability, core::TargetPolicy::kHighest,
-                 "deformability_highest"});
+  out.push_back(
+      {engine::Strategy::kDeformability, core::TargetPolicy::kHighest, "deformability_highest"});
   out.push_back({engine::Strategy::kDeformability, core::TargetPolicy::kLeastDeformable,
                  "deformability_least_deformable"});
   return out;
@@ -109,8 +109,8 @@ struct Models {
 
 struct Plan {
   std::vector<core::Grasp> grasps;
-  double detect_ms = 0;       ///< the engine's whole call: preprocessing, models, planner
-  bool target_found = true;   ///< a named target matched an instance (deformability)
+  double detect_ms = 0;      ///< the engine's whole call: preprocessing, models, planner
+  bool target_found = true;  ///< a named target matched an instance (deformability)
 };
 
 /// Where a user would click to name the target: the innermost pixel of its visible mask
@@ -221,9 +221,10 @@ struct Stats {
               {"damage_rate", MeanInterval(damage)}}},
             {"grasps_pressing_neighbours", pressed},
             {"mean_neighbour_deformation_rate", Num(neighbour_deformation.value())},
-            {"detect_ms", {{"median", ms.empty() ? json() : json(ms[ms.size() / 2])},
-                           {"p90", ms.empty() ? json() : json(ms[ms.size() * 9 / 10])},
-                           {"max", ms.empty() ? json() : json(ms.back())}}},
+            {"detect_ms",
+             {{"median", ms.empty() ? json() : json(ms[ms.size() / 2])},
+              {"p90", ms.empty() ? json() : json(ms[ms.size() * 9 / 10])},
+              {"max", ms.empty() ? json() : json(ms.back())}}},
             {"outcomes", outcomes},
             {"example_reason", example_reason},
             {"by_category", cats},
@@ -249,14 +250,13 @@ json Versus(const Stats& s, const Stats& base) {
        [&](std::span<const int> k) {
          return SampleMean(s.success, k) - SampleMean(base.success, k);
        }},
-      {"task_success_difference", [&](std::span<const int> k) {
-         return SampleMean(s.task, k) - SampleMean(base.task, k);
-       }}};
+      {"task_success_difference",
+       [&](std::span<const int> k) { return SampleMean(s.task, k) - SampleMean(base.task, k); }}};
   const std::vector<int> all = AllScenes(n);
   json out = json::object();
   for (const auto& [name, statistic] : statistics) {
-    const Interval ci = BootstrapInterval(static_cast<int>(n), statistic, kBootstrapResamples,
-                                          kBootstrapSeed);
+    const Interval ci =
+        BootstrapInterval(static_cast<int>(n), statistic, kBootstrapResamples, kBootstrapSeed);
     out[name] = {{"value", Num(statistic(all))},
                  {"ci95", json::array({Num(ci.low), Num(ci.high)})}};
   }
@@ -283,9 +283,8 @@ void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& ra
     return;
   }
   ++s->attempts;
-  auto exec = sim::ExecuteGrasp(scene, raycaster,
-                                sim::SimGraspFromCamera(plan.grasps.front(), world_from_camera),
-                                gripper);
+  auto exec = sim::ExecuteGrasp(
+      scene, raycaster, sim::SimGraspFromCamera(plan.grasps.front(), world_from_camera), gripper);
   if (!exec.ok()) {
     ++s->outcomes["error"];
     return;
@@ -422,8 +421,8 @@ void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
   ++stats->bins;
   stats->objects += static_cast<int>(scene.objects.size());
   int picked = 0, damaged = 0, failures = 0;
-  for (int attempt = 0; attempt < max_attempts && !scene.objects.empty() &&
-                        failures < kMaxFailuresInARow;
+  for (int attempt = 0;
+       attempt < max_attempts && !scene.objects.empty() && failures < kMaxFailuresInARow;
        ++attempt) {
     auto raycaster = sim::SceneRaycaster::Build(scene);
     if (!raycaster.ok()) break;
@@ -492,8 +491,8 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     } else if (name == "obstacles") {
       tasks.push_back(Task::kObstacles);
     } else {
-      return Fail("--tasks takes clutter, brushes and obstacles, comma-separated; got '" +
-                  name + "'");
+      return Fail("--tasks takes clutter, brushes and obstacles, comma-separated; got '" + name +
+                  "'");
     }
     start = comma + 1;
   }
@@ -507,8 +506,9 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
       if (!cli::ParseNumber(openings_text.substr(start, comma - start), &f) || !(f > 0 && f <= 1) ||
           (!deformability.opening_fractions.empty() &&
            !(f > deformability.opening_fractions.back()))) {
-        return Fail("--openings takes increasing fractions of the stroke in (0, 1], "
-                    "comma-separated");
+        return Fail(
+            "--openings takes increasing fractions of the stroke in (0, 1], "
+            "comma-separated");
       }
       deformability.opening_fractions.push_back(f);
       start = comma + 1;

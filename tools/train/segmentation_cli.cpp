@@ -103,12 +103,13 @@ int RunSegmentationTrain(std::vector<std::string> argv) {
   auto datasets = OpenAll(data);
   if (!datasets.ok()) return FailError(datasets.error());
   int total = 0;
-  for (const auto& d : datasets.value()) total += max_scenes > 0 ? std::min(max_scenes, d.size()) : d.size();
+  for (const auto& d : datasets.value())
+    total += max_scenes > 0 ? std::min(max_scenes, d.size()) : d.size();
   const auto t0 = std::chrono::steady_clock::now();
   auto load_bar = std::make_unique<sim::ProgressBar>("loading", total);
-  auto set = models::BuildSegmentationSet(datasets.value(),
-                                          cv::Size(o.network.width, o.network.height), max_scenes,
-                                          [&](int done, int) { load_bar->Update(done); });
+  auto set =
+      models::BuildSegmentationSet(datasets.value(), cv::Size(o.network.width, o.network.height),
+                                   max_scenes, [&](int done, int) { load_bar->Update(done); });
   load_bar.reset();
   if (!set.ok()) return FailError(set.error());
   std::cout << "loaded " << set.value().count() << " scenes (" << set.value().skipped
@@ -139,8 +140,8 @@ int RunSegmentationTrain(std::vector<std::string> argv) {
       });
   if (!report.ok()) return FailError(report.error());
   std::cout << "trained steps " << report.value().start_step << " -> " << report.value().end_step
-            << " in " << report.value().seconds << " s; model " << o.out.string()
-            << ", checkpoint " << models::CheckpointPath(o.out).string() << ", loss curve "
+            << " in " << report.value().seconds << " s; model " << o.out.string() << ", checkpoint "
+            << models::CheckpointPath(o.out).string() << ", loss curve "
             << models::LossPngPath(o.out).string() << std::endl;
   return 0;
 }

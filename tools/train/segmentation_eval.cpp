@@ -96,7 +96,9 @@ struct DeformabilityStats {
       per_category[name] = Num(std::sqrt(acc.first / std::max(1LL, acc.second)));
     }
     const double n = static_cast<double>(std::max<std::size_t>(1, rmse.size()));
-    return {{"rmse_255", Num(r / n)}, {"mssim", Num(m / n)}, {"scenes", rmse.size()},
+    return {{"rmse_255", Num(r / n)},
+            {"mssim", Num(m / n)},
+            {"scenes", rmse.size()},
             {"rmse_255_per_category", per_category}};
   }
 };
@@ -186,7 +188,8 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
       cv::Mat1f def_truth(s.labels.size(), 0.0f);
       for (int v = 0; v < s.labels.rows; ++v) {
         for (int u = 0; u < s.labels.cols; ++u) {
-          if (s.labels(v, u) > 0) def_truth(v, u) = 1.0f - std::clamp(s.stiffness(v, u), 0.0f, 1.0f);
+          if (s.labels(v, u) > 0)
+            def_truth(v, u) = 1.0f - std::clamp(s.stiffness(v, u), 0.0f, 1.0f);
         }
       }
       const auto t0 = Clock::now();

@@ -1,4 +1,4 @@
-// The end-to-end checks of the simulator on real catalogue objects: stiffness read off
+// End-to-end checks of the simulator on real catalogue objects: stiffness read off
 // rendered pixels (not mesh vertices), and grasps executed on a catalogue bottle.
 #include <gtest/gtest.h>
 

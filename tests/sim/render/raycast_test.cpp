@@ -16,8 +16,8 @@
 namespace softgrasp::sim {
 namespace {
 
-using test_scenes::BigTable;
 using softgrasp::testing::CentredBoxMesh;
+using test_scenes::BigTable;
 using test_scenes::IcosphereMesh;
 using test_scenes::MakeObject;
 using test_scenes::Translation;
