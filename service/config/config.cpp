@@ -4,11 +4,13 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <type_traits>
+
+#include "service/cli/args.h"
+#include "service/cli/files.h"
 
 namespace softgrasp::config {
 namespace {
@@ -152,7 +154,7 @@ struct Entry {
 
 // The one table of settings: the file's sections and keys, their environment variables and
 // flags, their limits and their help. ApplyConfigJson, ApplyEnvironment, ParseCommandLine,
-// ConfigToJson, UsageText and SettingRange all read it.
+// ConfigToJson, UsageText and SettingOf all read it.
 std::vector<Entry> Table(ServiceConfig& c) {
   auto& s = c.server;
   auto& g = c.default_gripper;
@@ -347,13 +349,11 @@ core::Result<ServiceConfig> ApplyText(ServiceConfig config, const std::string& s
 }
 
 core::Result<std::string> ReadConfigFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return MakeError(ErrorCode::kInvalidArgument, "cannot read config file " + path, "config");
+  auto text = cli::ReadFile(path);
+  if (!text.ok()) {
+    return MakeError(ErrorCode::kInvalidArgument, "config file: " + text.error().message, "config");
   }
-  std::ostringstream os;
-  os << in.rdbuf();
-  return os.str();
+  return text;
 }
 
 }  // namespace
@@ -420,27 +420,19 @@ core::Result<ServiceConfig> ApplyEnvironment(ServiceConfig config) {
 
 core::Result<CommandLine> ParseCommandLine(const std::vector<std::string>& args) {
   CommandLine out;
-  const std::vector<Setting> settings = Settings();
-  std::vector<std::pair<std::string, std::string>> flags;  // in the order given
-  std::string config_file;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") {
-      out.help = true;
-      return out;
-    }
-    bool known = a == "--config";
-    for (const Setting& s : settings) known = known || (s.flag != nullptr && a == s.flag);
-    if (!known) return MakeError(ErrorCode::kInvalidArgument, "unknown argument '" + a + "'", a);
-    if (i + 1 >= args.size()) {
-      return MakeError(ErrorCode::kInvalidArgument, a + " needs a value", a);
-    }
-    if (a == "--config") {
-      config_file = args[++i];
-    } else {
-      flags.emplace_back(a, args[++i]);
-    }
+  cli::Args parsed(args);
+  if (parsed.Flag("--help") || parsed.Flag("-h")) {
+    out.help = true;
+    return out;
   }
+  std::string config_file;
+  parsed.Text("--config", &config_file);
+  std::vector<std::pair<std::string, std::string>> flags;  // in the table's order
+  for (const Setting& s : Settings()) {
+    std::string value;
+    if (s.flag != nullptr && parsed.Text(s.flag, &value)) flags.emplace_back(s.flag, value);
+  }
+  if (auto problem = parsed.Finish()) return *problem;
   ServiceConfig config;
   if (!config_file.empty()) {
     auto text = ReadConfigFile(config_file);
