@@ -11,6 +11,7 @@
 
 #include "service/cli/args.h"
 #include "service/cli/files.h"
+#include "service/codec/json_codec.h"
 
 namespace softgrasp::config {
 namespace {
@@ -111,36 +112,14 @@ Access Tokens(std::vector<std::string>* target) {
 Access WorkspaceBox(bridge::Workspace* target) {
   return {[=](const json& v) -> std::string {
             if (!v.is_object()) return "must be an object {frame_id, min_m, max_m}";
-            bridge::Workspace w = *target;
-            for (const auto& [key, value] : v.items()) {
-              if (key == "frame_id") {
-                if (!value.is_string() || value.get<std::string>().empty()) {
-                  return ".frame_id must be a non-empty string";
-                }
-                w.frame_id = value.get<std::string>();
-              } else if (key == "min_m" || key == "max_m") {
-                if (!value.is_array() || value.size() != 3) return "." + key + " must be 3 numbers";
-                auto& corner = key == "min_m" ? w.min_m : w.max_m;
-                for (std::size_t i = 0; i < 3; ++i) {
-                  if (!value[i].is_number() || !std::isfinite(value[i].get<double>())) {
-                    return "." + key + " must be 3 finite numbers";
-                  }
-                  corner[i] = value[i].get<double>();
-                }
-              } else {
-                return "has an unknown key '" + key + "'";
-              }
-            }
-            for (std::size_t i = 0; i < 3; ++i) {
-              if (!(w.min_m[i] < w.max_m[i])) return "min_m must be below max_m on every axis";
-            }
-            *target = w;
+            // The keys given replace the current box's; the codec names them from "" on, so its
+            // message reads on after the setting's name (".min_m must be ...").
+            auto w = codec::WorkspaceFromJson(v, "", *target);
+            if (!w) return w.error().message;
+            *target = std::move(w).value();
             return {};
           },
-          [=] {
-            return json{
-                {"frame_id", target->frame_id}, {"min_m", target->min_m}, {"max_m", target->max_m}};
-          }};
+          [=] { return codec::ToJson(*target); }};
 }
 
 // How a flag's or an environment variable's text becomes the JSON value the setting takes.

@@ -276,4 +276,28 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
   return plan;
 }
 
+core::Result<Segmentation> Segment(const core::DepthImage& depth, const core::Camera& camera,
+                                   const SegmentOptions& options, const Models& models) {
+  auto method = ResolveSegmentationMethod(options.method, models.segmentation != nullptr, "method");
+  if (!method.ok()) return method.error();
+  const auto preprocess_start = Clock::now();
+  auto preprocessed = core::Preprocess(depth, camera);
+  if (!preprocessed.ok()) return preprocessed.error();
+  Segmentation out;
+  out.scene = std::move(preprocessed).value();
+  out.timing.preprocess_ms = MillisecondsSince(preprocess_start);
+
+  auto segmented = SegmentInstances(out.scene, camera, method.value(), models.segmentation.get());
+  if (!segmented.ok()) return segmented.error();
+  out.instances = std::move(segmented).value();
+  out.timing.segment_ms = out.instances.milliseconds;
+  if (options.describe) {
+    const auto describe_start = Clock::now();
+    out.described = DescribeSceneInstances(out.instances, out.scene, camera, models.stiffness.get(),
+                                           &out.timing.stiffness_ms);
+    out.timing.describe_ms = MillisecondsSince(describe_start) - out.timing.stiffness_ms;
+  }
+  return out;
+}
+
 }  // namespace softgrasp::engine

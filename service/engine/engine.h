@@ -159,4 +159,32 @@ struct Plan {
 core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera& camera,
                               const PlanOptions& options, const Models& models);
 
+/// What a segmentation (POST /v1/segmentation) asks for.
+struct SegmentOptions {
+  /// The segmenter; unset: the model when one is loaded, else pcl.
+  std::optional<segmentation::Method> method;
+  /// Describe every instance (DescribeSceneInstances; with the stiffness model's mean when one
+  /// is loaded).
+  bool describe = false;
+};
+
+struct SegmentTimings {
+  double preprocess_ms = 0;
+  double segment_ms = 0;
+  double stiffness_ms = 0;  ///< 0 when the stiffness model did not run
+  double describe_ms = 0;   ///< describing, the stiffness model's time excluded
+};
+
+struct Segmentation {
+  core::Scene scene;  ///< preprocessed
+  SceneInstances instances;
+  std::vector<segmentation::InstanceInfo> described;  ///< filled when options.describe
+  SegmentTimings timing;
+};
+
+/// Preprocesses the depth and segments it into object instances. Errors: core::Preprocess's
+/// (kUnprocessable), ResolveSegmentationMethod's (field "method") and SegmentInstances'.
+core::Result<Segmentation> Segment(const core::DepthImage& depth, const core::Camera& camera,
+                                   const SegmentOptions& options, const Models& models);
+
 }  // namespace softgrasp::engine

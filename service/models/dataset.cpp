@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "service/codec/json_codec.h"
 #include "service/core/preprocess.h"
 #include "service/models/stiffness_model.h"
 
@@ -90,17 +91,12 @@ core::Result<SceneSample> SceneDataset::Load(int i) const {
   auto manifest = ReadJson(e.manifest_path);
   if (!manifest.ok()) return manifest.error();
   s.manifest = std::move(manifest.value());
-  try {
-    const auto& cam = s.manifest.at("camera");
-    s.camera.fx = cam.at("fx").get<double>();
-    s.camera.fy = cam.at("fy").get<double>();
-    s.camera.cx = cam.at("cx").get<double>();
-    s.camera.cy = cam.at("cy").get<double>();
-    s.camera.width = cam.at("width").get<int>();
-    s.camera.height = cam.at("height").get<int>();
-  } catch (const nlohmann::json::exception&) {
-    return FileError(e.manifest_path, "no complete \"camera\" (fx, fy, cx, cy, width, height)");
-  }
+  const nlohmann::json absent;  // "camera must be a JSON object"
+  const auto camera = codec::CameraFromJson(
+      s.manifest.is_object() && s.manifest.contains("camera") ? s.manifest["camera"] : absent,
+      "camera");
+  if (!camera) return FileError(e.manifest_path, camera.error().message);
+  s.camera = camera.value();
   const std::string stem = e.stem.string();
   const cv::Mat depth_mm = cv::imread(stem + "_depth.png", cv::IMREAD_UNCHANGED);
   const cv::Mat stiffness = cv::imread(stem + "_stiffness.png", cv::IMREAD_UNCHANGED);

@@ -6,6 +6,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "service/codec/json_codec.h"
 #include "service/core/fge_deformability.h"
 #include "service/core/preprocess.h"
 #include "service/engine/engine.h"
@@ -65,24 +66,9 @@ json GraspToJson(const engine::PlannedGrasp& planned, int rank) {
       {"instance_id", planned.instance_id ? json(*planned.instance_id) : json()},
       // That instance's mean deformability (0 rigid ... 1 very soft): the model's map only.
       {"instance_deformability", OrNull(planned.instance_deformability)},
-      {"pose",
-       {{"frame", "camera"},
-        {"position_m", {g.p_CG_m[0], g.p_CG_m[1], g.p_CG_m[2]}},
-        {"orientation_wxyz", {g.q_CG_wxyz[0], g.q_CG_wxyz[1], g.q_CG_wxyz[2], g.q_CG_wxyz[3]}}}},
+      {"pose", codec::ToJson(codec::Pose{"camera", g.p_CG_m, g.q_CG_wxyz})},
       {"deformability", deformability},
   };
-}
-
-json CameraToJson(const core::Camera& c) {
-  return {{"fx", c.fx}, {"fy", c.fy},       {"cx", c.cx},
-          {"cy", c.cy}, {"width", c.width}, {"height", c.height}};
-}
-
-json GripperToJson(const core::Gripper& g) {
-  return {{"opening_stroke_mm", core::MmFromMetres(g.opening_stroke_m)},
-          {"finger_width_mm", core::MmFromMetres(g.finger_width_m)},
-          {"finger_thickness_mm", core::MmFromMetres(g.finger_thickness_m)},
-          {"finger_length_mm", core::MmFromMetres(g.finger_length_m)}};
 }
 
 http::Response Healthz() { return http::Response::Json(200, R"({"status":"ok"})"); }
@@ -180,16 +166,13 @@ http::Response Info(const config::ServiceConfig& config, bool robot_running, con
       {"segmentation_formats", {"json", "labels", "overlay", "deformability"}},
       {"mesh_formats", {"obj", "ply_ascii", "ply_binary", "stl_ascii", "stl_binary"}},
       {"defaults",
-       {{"camera", CameraToJson(config.default_camera)},
-        {"gripper", GripperToJson(config.default_gripper)},
-        {"top_k", config.fge.top_k},
-        {"num_angles", config.fge.num_angles},
-        {"num_height_steps", config.fge.num_height_steps},
-        {"height_step_m", config.fge.height_step_m},
+       {{"camera", codec::ToJson(config.default_camera)},
+        {"gripper", codec::ToJson(config.default_gripper)},
         {"png_unit_m", config.png_unit_m},
         {"deformability", DeformabilityDefaultsJson()}}},
       {"robot", RobotInfoJson(config, robot_running)},
   };
+  body["defaults"].update(codec::ToJson(config.fge));
   return http::Response::Json(200, body.dump());
 }
 
@@ -226,7 +209,7 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
   for (std::size_t i = 0; i < plan.grasps.size(); ++i) {
     list.push_back(GraspToJson(plan.grasps[i], static_cast<int>(i) + 1));
   }
-  json camera = CameraToJson(up.camera);
+  json camera = codec::ToJson(up.camera);
   camera["source"] = up.camera_source;
   json timing = {{"decode", decode_ms}, {"preprocess", plan.timing.preprocess_ms}};
   if (plan.timing.stiffness_ran) timing["stiffness"] = plan.timing.stiffness_ms;
@@ -247,7 +230,7 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
       {"floor",
        {{"normal", {scene.floor.n[0], scene.floor.n[1], scene.floor.n[2]}},
         {"d_m", scene.floor.d}}},
-      {"gripper", GripperToJson(in.plan.gripper)},
+      {"gripper", codec::ToJson(in.plan.gripper)},
       {"contact_region",
        {{"segmask", !in.plan.region_of_interest.empty()},
         {"min_depth_m", in.plan.min_depth_m},
@@ -357,21 +340,44 @@ json InstanceToJson(const segmentation::InstanceInfo& i) {
   };
 }
 
+json SegmentationToJson(const SegmentationRequest& in, const engine::Segmentation& found,
+                        const Models& models, double decode_ms, double total_ms) {
+  const DepthUpload& up = in.upload;
+  const engine::SegmentTimings& t = found.timing;
+  json list = json::array();
+  for (const auto& info : found.described) list.push_back(InstanceToJson(info));
+  json camera = codec::ToJson(up.camera);
+  camera["source"] = up.camera_source;
+  json timing = {{"decode", decode_ms}, {"preprocess", t.preprocess_ms}, {"segment", t.segment_ms}};
+  if (t.stiffness_ms > 0) timing["stiffness"] = t.stiffness_ms;
+  timing["describe"] = t.describe_ms;
+  timing["total"] = total_ms;
+  const segmentation::Method method = found.instances.method;
+  return {
+      {"method", segmentation::MethodName(method)},
+      {"segmentation_model",
+       method == segmentation::Method::kModel ? json("segmentation") : json()},
+      {"stiffness_model", models.stiffness ? json("pix2stiffness") : json()},
+      {"image",
+       {{"width", up.depth.width()},
+        {"height", up.depth.height()},
+        {"format", io::DepthFormatName(up.depth_format)},
+        {"missing_fraction", found.scene.missing_fraction}}},
+      {"camera", camera},
+      {"instances", list},
+      {"timing_ms", timing},
+  };
+}
+
 // POST /v1/segmentation: object instances of the uploaded depth (docs/segmentation.md).
 http::Response Segmentation(const http::Request& request, const config::ServiceConfig& config,
                             const Models& models) {
-  const models::StiffnessModel* stiffness_model = models.stiffness.get();
-  const models::SegmentationModel* model = models.segmentation.get();
   const auto start = Clock::now();
   auto parsed = ParseSegmentationRequest(request, config);
   if (!parsed.ok()) return ErrorToResponse(parsed.error());
   const SegmentationRequest& in = parsed.value();
-  const DepthUpload& up = in.upload;
-  auto method = engine::ResolveSegmentationMethod(in.method, model != nullptr, "method");
-  if (!method.ok()) return ErrorToResponse(method.error());
-  if (in.format == SegmentationFormat::kDeformability &&
-      method.value() == segmentation::Method::kPcl) {
-    // Only reached without a model (method=pcl with this format is refused while parsing).
+  if (in.format == SegmentationFormat::kDeformability && !models.segmentation) {
+    // method=pcl with this format is refused while parsing; here no model is loaded.
     return ErrorToResponse(core::MakeError(
         core::ErrorCode::kUnavailable,
         "format 'deformability' needs the segmentation model and none is loaded (start the "
@@ -379,72 +385,39 @@ http::Response Segmentation(const http::Request& request, const config::ServiceC
         "format"));
   }
   const double decode_ms = MillisecondsSince(start);
-
-  const auto preprocess_start = Clock::now();
-  auto preprocessed = core::Preprocess(up.depth, up.camera);
-  if (!preprocessed.ok()) return ErrorToResponse(preprocessed.error());
-  const core::Scene scene = std::move(preprocessed).value();
-  const double preprocess_ms = MillisecondsSince(preprocess_start);
-
-  auto segmented = engine::SegmentInstances(scene, up.camera, method.value(), model);
+  engine::SegmentOptions options{in.method, in.format == SegmentationFormat::kJson};
+  auto segmented = engine::Segment(in.upload.depth, in.upload.camera, options, models);
   if (!segmented.ok()) return ErrorToResponse(segmented.error());
-  const engine::SceneInstances& found = segmented.value();
-  const std::string timing_header = "preprocess;dur=" + std::to_string(preprocess_ms) +
-                                    ", segment;dur=" + std::to_string(found.milliseconds);
+  const engine::Segmentation& found = segmented.value();
+  const segmentation::InstanceMasks& masks = found.instances.masks;
 
   http::Response out;
   switch (in.format) {
     case SegmentationFormat::kLabels:
-      out = http::Response::Bytes(200, "image/png", io::EncodePng(found.masks.labels));
+      out = http::Response::Bytes(200, "image/png", io::EncodePng(masks.labels));
       break;
     case SegmentationFormat::kOverlay:
       out = http::Response::Bytes(
           200, "image/png",
-          io::EncodePng(io::DrawInstances(io::ColorizeDepth(up.depth), found.masks.labels)));
+          io::EncodePng(io::DrawInstances(io::ColorizeDepth(in.upload.depth), masks.labels)));
       break;
     case SegmentationFormat::kDeformability: {
-      const cv::Mat1b objects = found.masks.labels > 0;
-      out = EncodeMap(found.deformability, in.encoding, [&objects](const cv::Mat1f& values) {
-        return io::ColorizeDeformability(values, objects);
-      });
+      const cv::Mat1b objects = masks.labels > 0;
+      out = EncodeMap(found.instances.deformability, in.encoding,
+                      [&objects](const cv::Mat1f& values) {
+                        return io::ColorizeDeformability(values, objects);
+                      });
       break;
     }
-    case SegmentationFormat::kJson: {
-      const auto describe_start = Clock::now();
-      double stiffness_ms = 0;
-      const auto infos =
-          engine::DescribeSceneInstances(found, scene, up.camera, stiffness_model, &stiffness_ms);
-      const double describe_ms = MillisecondsSince(describe_start) - stiffness_ms;
-      json list = json::array();
-      for (const auto& info : infos) list.push_back(InstanceToJson(info));
-      json camera = CameraToJson(up.camera);
-      camera["source"] = up.camera_source;
-      json timing = {
-          {"decode", decode_ms}, {"preprocess", preprocess_ms}, {"segment", found.milliseconds}};
-      if (stiffness_ms > 0) timing["stiffness"] = stiffness_ms;
-      timing["describe"] = describe_ms;
-      timing["total"] = MillisecondsSince(start);
-      const json body = {
-          {"method", segmentation::MethodName(found.method)},
-          {"segmentation_model",
-           found.method == segmentation::Method::kModel ? json("segmentation") : json()},
-          {"stiffness_model", stiffness_model ? json("pix2stiffness") : json()},
-          {"image",
-           {{"width", up.depth.width()},
-            {"height", up.depth.height()},
-            {"format", io::DepthFormatName(up.depth_format)},
-            {"missing_fraction", scene.missing_fraction}}},
-          {"camera", camera},
-          {"instances", list},
-          {"timing_ms", timing},
-      };
-      out = http::Response::Json(200, body.dump());
+    case SegmentationFormat::kJson:
+      out = http::Response::Json(
+          200, SegmentationToJson(in, found, models, decode_ms, MillisecondsSince(start)).dump());
       break;
-    }
   }
-  out.set_header("X-Instance-Count", std::to_string(found.masks.count()));
-  out.set_header("X-Segmentation-Method", segmentation::MethodName(found.method));
-  out.set_header("Server-Timing", timing_header);
+  out.set_header("X-Instance-Count", std::to_string(masks.count()));
+  out.set_header("X-Segmentation-Method", segmentation::MethodName(found.instances.method));
+  out.set_header("Server-Timing", "preprocess;dur=" + std::to_string(found.timing.preprocess_ms) +
+                                      ", segment;dur=" + std::to_string(found.timing.segment_ms));
   return out;
 }
 

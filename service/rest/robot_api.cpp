@@ -3,7 +3,7 @@
 #include <cctype>
 #include <nlohmann/json.hpp>
 
-#include "service/core/quaternion.h"
+#include "service/codec/json_codec.h"
 #include "service/rest/api.h"
 #include "service/rest/robot_request.h"
 
@@ -20,10 +20,6 @@ constexpr char kRetryAfterS[] = "2";
 
 double UnixSeconds(std::int64_t unix_ns) { return static_cast<double>(unix_ns) * 1e-9; }
 
-json WorkspaceJson(const bridge::Workspace& w) {
-  return {{"frame_id", w.frame_id}, {"min_m", w.min_m}, {"max_m", w.max_m}};
-}
-
 json RecordJson(const robot::CommandRecord& r) {
   const bridge::GraspCommand& c = r.command;
   json out = {
@@ -32,33 +28,19 @@ json RecordJson(const robot::CommandRecord& r) {
       {"robot_id", c.robot_id},
       {"object_id", c.object_id},
       {"accepted_unix_s", UnixSeconds(r.accepted_unix_ns)},
-      {"command",
-       {{"frame_id", c.frame_id},
-        {"position_m", c.position_m},
-        {"orientation_wxyz", core::WxyzFromXyzw(c.orientation_xyzw)},
-        {"opening_m", c.opening_width_m},
-        {"force_n", c.closing_force_n},
-        {"approach_m", c.approach_m},
-        {"retreat_m", c.retreat_m},
-        {"score", c.score}}},
+      {"command", codec::ApiCommandJson(c)},
   };
   if (!r.detail.empty()) out["detail"] = r.detail;
   if (r.timed_out_unix_ns != 0) out["timed_out_unix_s"] = UnixSeconds(r.timed_out_unix_ns);
   if (r.result) {
     const bridge::GraspResult& g = *r.result;
-    out["result"] = {
-        {"outcome", bridge::OutcomeName(g.outcome)},
-        {"reason", g.reason},
-        {"robot_id", g.robot_id},
-        {"contact_width_m", g.contact_width_m},
-        {"grasped_width_m", g.grasped_width_m},
-        {"deformation_rate", g.deformation_rate},
-        {"execution_s", g.execution_s},
-        {"finished_unix_s", UnixSeconds(g.finished_unix_ns)},
-        {"received_unix_s", UnixSeconds(r.result_received_unix_ns)},
-        {"round_trip_s", UnixSeconds(r.result_received_unix_ns - r.accepted_unix_ns)},
-        {"late", r.result_late},
-    };
+    // The robot's result in its bus form, with the record's clock beside it.
+    json result = codec::ToJson(g);
+    result["finished_unix_s"] = UnixSeconds(g.finished_unix_ns);
+    result["received_unix_s"] = UnixSeconds(r.result_received_unix_ns);
+    result["round_trip_s"] = UnixSeconds(r.result_received_unix_ns - r.accepted_unix_ns);
+    result["late"] = r.result_late;
+    out["result"] = std::move(result);
   }
   return out;
 }
@@ -134,11 +116,11 @@ http::Response GetRobots(const config::ServiceConfig& config,
                       {"heartbeat_seq", r.status.heartbeat_seq},
                       {"current_command_id", r.status.current_command_id},
                       {"detail", r.status.detail},
-                      {"workspace", WorkspaceJson(r.status.workspace)}});
+                      {"workspace", codec::ToJson(r.status.workspace)}});
   }
   const json body = {{"enabled", true},
                      {"domain_id", config.robot.domain_id},
-                     {"workspace", WorkspaceJson(config.robot.workspace)},
+                     {"workspace", codec::ToJson(config.robot.workspace)},
                      {"command_timeout_s", config.robot.command_timeout_s},
                      {"default_force_n", config.robot.default_force_n},
                      {"robots", robots}};

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <vector>
 
+#include "service/codec/json_codec.h"
 #include "service/core/quaternion.h"
 
 namespace softgrasp::rest {
@@ -111,24 +112,6 @@ core::Result<double> NumberAt(const json& parent, const std::string& key, const 
   return v;
 }
 
-template <std::size_t N>
-core::Result<std::array<double, N>> VectorAt(const json& parent, const std::string& key,
-                                             const std::string& field) {
-  if (!parent.contains(key)) return Bad(field, "is required");
-  const json& v = parent[key];
-  if (!v.is_array() || v.size() != N) {
-    return Bad(field, "must be an array of " + std::to_string(N) + " numbers");
-  }
-  std::array<double, N> out{};
-  for (std::size_t i = 0; i < N; ++i) {
-    const std::string at = field + "[" + std::to_string(i) + "]";
-    if (!v[i].is_number()) return Bad(at, "must be a number");
-    out[i] = v[i].get<double>();
-    if (!std::isfinite(out[i])) return Unusable(at, "must be a finite number");
-  }
-  return out;
-}
-
 core::Result<std::string> IdAt(const json& body, const std::string& key, bool required) {
   if (!body.contains(key) || body[key].is_null()) {
     if (required) {
@@ -203,27 +186,13 @@ core::Result<RobotGraspRequest> ParseRobotGraspRequest(std::string_view body_tex
   if (!body.contains("pose") || !body["pose"].is_object()) {
     return Bad("pose", "is required: {frame, position_m [x, y, z], orientation_wxyz [w, x, y, z]}");
   }
-  const json& pose = body["pose"];
-  auto position = VectorAt<3>(pose, "position_m", "pose.position_m");
-  if (!position) return position.error();
-  auto wxyz = VectorAt<4>(pose, "orientation_wxyz", "pose.orientation_wxyz");
-  if (!wxyz) return wxyz.error();
-  const auto& q = wxyz.value();
-  const double norm = core::QuaternionNorm(q);
-  if (std::abs(norm - 1.0) > 1e-3) {
-    std::ostringstream os;
-    os << "must be a unit quaternion (its norm is " << norm << ")";
-    return Unusable("pose.orientation_wxyz", os.str());
-  }
-  c.position_m = position.value();
-  c.orientation_xyzw = core::XyzwFromWxyz(q);
+  auto pose = codec::PoseFromJson(body["pose"], "pose");
+  if (!pose) return pose.error();
+  c.position_m = pose.value().position_m;
+  c.orientation_xyzw = core::XyzwFromWxyz(pose.value().orientation_wxyz);
 
   // The frame: frame_id, else the pose's own frame, else the camera's.
-  std::string pose_frame;
-  if (pose.contains("frame")) {
-    if (!pose["frame"].is_string()) return Bad("pose.frame", "must be a string");
-    pose_frame = pose["frame"].get<std::string>();
-  }
+  const std::string& pose_frame = pose.value().frame;
   if (body.contains("frame_id") && !body["frame_id"].is_null()) {
     if (!body["frame_id"].is_string() || body["frame_id"].get<std::string>().empty()) {
       return Bad("frame_id", "must be a non-empty string");
@@ -266,19 +235,7 @@ core::Result<RobotGraspRequest> ParseRobotGraspRequest(std::string_view body_tex
   c.retreat_m = retreat.value();
   c.score = score.value();
 
-  out.fingerprint = json{
-      {"id", c.command_id},
-      {"robot_id", c.robot_id},
-      {"object_id", c.object_id},
-      {"frame_id", c.frame_id},
-      {"position_m", c.position_m},
-      {"orientation_wxyz", q},
-      {"opening_m", c.opening_width_m},
-      {"force_n", c.closing_force_n},
-      {"approach_m", c.approach_m},
-      {"retreat_m", c.retreat_m},
-      {"score",
-       c.score}}.dump();
+  out.fingerprint = codec::ApiCommandJson(c).dump();
   return out;
 }
 

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "service/bridge/bridge.h"
+#include "service/codec/json_codec.h"
 
 namespace softgrasp::robot {
 namespace {
@@ -24,76 +25,8 @@ using core::MakeError;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-// ---- journal records (one JSON object per line; docs/robot-api.md lists them) ----
-
-json CommandToJson(const GraspCommand& c) {
-  return {{"command_id", c.command_id},
-          {"robot_id", c.robot_id},
-          {"object_id", c.object_id},
-          {"frame_id", c.frame_id},
-          {"position_m", c.position_m},
-          {"orientation_xyzw", c.orientation_xyzw},
-          {"opening_width_m", c.opening_width_m},
-          {"closing_force_n", c.closing_force_n},
-          {"approach_m", c.approach_m},
-          {"retreat_m", c.retreat_m},
-          {"score", c.score},
-          {"issued_unix_ns", c.issued_unix_ns}};
-}
-
-GraspCommand CommandFromJson(const json& j) {  // throws json::exception on a wrong shape
-  GraspCommand c;
-  c.command_id = j.at("command_id").get<std::string>();
-  c.robot_id = j.at("robot_id").get<std::string>();
-  c.object_id = j.at("object_id").get<std::string>();
-  c.frame_id = j.at("frame_id").get<std::string>();
-  c.position_m = j.at("position_m").get<std::array<double, 3>>();
-  c.orientation_xyzw = j.at("orientation_xyzw").get<std::array<double, 4>>();
-  c.opening_width_m = j.at("opening_width_m").get<double>();
-  c.closing_force_n = j.at("closing_force_n").get<double>();
-  c.approach_m = j.at("approach_m").get<double>();
-  c.retreat_m = j.at("retreat_m").get<double>();
-  c.score = j.at("score").get<double>();
-  c.issued_unix_ns = j.at("issued_unix_ns").get<std::int64_t>();
-  return c;
-}
-
-json ResultToJson(const GraspResult& r) {
-  return {{"command_id", r.command_id},
-          {"robot_id", r.robot_id},
-          {"object_id", r.object_id},
-          {"outcome", bridge::OutcomeName(r.outcome)},
-          {"reason", r.reason},
-          {"contact_width_m", r.contact_width_m},
-          {"grasped_width_m", r.grasped_width_m},
-          {"deformation_rate", r.deformation_rate},
-          {"execution_s", r.execution_s},
-          {"finished_unix_ns", r.finished_unix_ns}};
-}
-
-GraspResult ResultFromJson(const json& j) {  // throws json::exception / std::out_of_range
-  GraspResult r;
-  r.command_id = j.at("command_id").get<std::string>();
-  r.robot_id = j.at("robot_id").get<std::string>();
-  r.object_id = j.at("object_id").get<std::string>();
-  const std::string outcome = j.at("outcome").get<std::string>();
-  bool known = false;
-  for (GraspOutcome o : {GraspOutcome::kSucceeded, GraspOutcome::kFailed, GraspOutcome::kRejected,
-                         GraspOutcome::kTimedOut}) {
-    if (outcome == bridge::OutcomeName(o)) {
-      r.outcome = o;
-      known = true;
-    }
-  }
-  if (!known) throw std::out_of_range("unknown outcome '" + outcome + "'");
-  r.reason = j.at("reason").get<std::string>();
-  r.contact_width_m = j.at("contact_width_m").get<double>();
-  r.grasped_width_m = j.at("grasped_width_m").get<double>();
-  r.deformation_rate = j.at("deformation_rate").get<double>();
-  r.execution_s = j.at("execution_s").get<double>();
-  r.finished_unix_ns = j.at("finished_unix_ns").get<std::int64_t>();
-  return r;
-}
+// Journal records are one JSON object per line (docs/robot-api.md lists them); the command and
+// the result inside them are in the codec's bus form.
 
 CommandState StateFor(GraspOutcome outcome) {
   switch (outcome) {
@@ -138,7 +71,7 @@ std::string AcceptedJournalRecord(const CommandRecord& record) {
               {"id", record.command.command_id},
               {"fingerprint", record.fingerprint},
               {"accepted_unix_ns", record.accepted_unix_ns},
-              {"command", CommandToJson(record.command)}}
+              {"command", codec::ToJson(record.command)}}
       .dump();
 }
 
@@ -147,7 +80,7 @@ std::string ResultJournalRecord(const std::string& command_id, std::int64_t rece
   return json{{"type", "result"},
               {"id", command_id},
               {"received_unix_ns", received_unix_ns},
-              {"result", ResultToJson(result)}}
+              {"result", codec::ToJson(result)}}
       .dump();
 }
 
@@ -330,7 +263,9 @@ void CommandTracker::ReplayOne(const std::string& payload) {
   const std::string id = j["id"];
   try {
     if (type == "accepted") {
-      auto command = bridge::Validate(CommandFromJson(j.at("command")));
+      auto read = codec::CommandFromJson(j.at("command"), "command");
+      if (!read) return skip(read.error().message);
+      auto command = bridge::Validate(std::move(read).value());
       if (!command) return skip(command.error().message);
       if (command.value().command_id != id) return skip("id does not match the command");
       if (entries_.count(id) != 0) return skip("id accepted twice");
@@ -346,7 +281,9 @@ void CommandTracker::ReplayOne(const std::string& payload) {
     if (it == entries_.end()) return skip("no accepted command with this id");
     CommandRecord& record = it->second.record;
     if (type == "result") {
-      auto result = bridge::Validate(ResultFromJson(j.at("result")));
+      auto read = codec::ResultFromJson(j.at("result"), "result");
+      if (!read) return skip(read.error().message);
+      auto result = bridge::Validate(std::move(read).value());
       if (!result) return skip(result.error().message);
       if (record.result) return skip("second result for the id");
       record.result_late = record.state == CommandState::kTimedOut;

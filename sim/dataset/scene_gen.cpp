@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "service/codec/json_codec.h"
 #include "service/core/quaternion.h"
 
 namespace softgrasp::sim {
@@ -256,12 +257,25 @@ core::Result<std::vector<ObjectVisibility>> MeasureVisibility(const GeneratedSce
   return out;
 }
 
+namespace {
+
+// The noise model as manifests and specs write it.
+json NoiseToJson(const NoiseModel& noise) {
+  return {{"enabled", noise.enabled},
+          {"grazing_angle_deg", noise.grazing_angle_deg},
+          {"edge_jump_m", noise.edge_jump_m},
+          {"edge_dropout_probability", noise.edge_dropout_probability},
+          {"sigma_base_m", noise.sigma_base_m},
+          {"sigma_quadratic_per_m", noise.sigma_quadratic_per_m}};
+}
+
+}  // namespace
+
 json SceneManifest(const SceneSpec& spec, const GeneratedScene& generated) {
-  const core::Camera& cam = spec.render.camera;
-  const Eigen::Isometry3d& pose = spec.render.world_from_camera;
-  const Eigen::Vector3d t = pose.translation();
-  const Eigen::Quaterniond q(pose.rotation());
-  const NoiseModel& noise = spec.render.noise;
+  json camera = codec::ToJson(spec.render.camera);
+  camera["world_from_camera"] = TransformToJson(spec.render.world_from_camera);
+  json noise = NoiseToJson(spec.render.noise);
+  noise["seed"] = NoiseSeed(generated.scene_seed);
   json objects = json::array();
   for (const PlacedObject& p : generated.scene.objects) objects.push_back(PlacedObjectToJson(p));
   return {
@@ -269,24 +283,8 @@ json SceneManifest(const SceneSpec& spec, const GeneratedScene& generated) {
       {"scene_seed", generated.scene_seed},
       {"split", ShapeSplitName(spec.split)},
       {"frames", "W: z up, support top at z = 0; C: OpenCV (x right, y down, z forward)"},
-      {"camera",
-       {{"fx", cam.fx},
-        {"fy", cam.fy},
-        {"cx", cam.cx},
-        {"cy", cam.cy},
-        {"width", cam.width},
-        {"height", cam.height},
-        {"world_from_camera",
-         {{"position_m", {t.x(), t.y(), t.z()}},
-          {"quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}}}}},
-      {"noise",
-       {{"enabled", noise.enabled},
-        {"seed", NoiseSeed(generated.scene_seed)},
-        {"grazing_angle_deg", noise.grazing_angle_deg},
-        {"edge_jump_m", noise.edge_jump_m},
-        {"edge_dropout_probability", noise.edge_dropout_probability},
-        {"sigma_base_m", noise.sigma_base_m},
-        {"sigma_quadratic_per_m", noise.sigma_quadratic_per_m}}},
+      {"camera", camera},
+      {"noise", noise},
       {"spec", SceneSpecToJson(spec)},
       {"support", SupportToJson(generated.scene.support)},
       {"objects", objects},
@@ -298,11 +296,9 @@ json SceneManifest(const SceneSpec& spec, const GeneratedScene& generated) {
 }
 
 json SceneSpecToJson(const SceneSpec& spec) {
-  const core::Camera& cam = spec.render.camera;
-  const Eigen::Isometry3d& pose = spec.render.world_from_camera;
-  const Eigen::Vector3d t = pose.translation();
-  const Eigen::Quaterniond q(pose.rotation());
-  const NoiseModel& noise = spec.render.noise;
+  // The camera's intrinsics and its pose in one object: {fx, ..., position_m, quaternion_xyzw}.
+  json camera = codec::ToJson(spec.render.camera);
+  camera.update(TransformToJson(spec.render.world_from_camera));
   const mesh::FractalParams& f = spec.fractal;
   return {
       {"objects", {spec.min_objects, spec.max_objects}},
@@ -335,22 +331,8 @@ json SceneSpecToJson(const SceneSpec& spec) {
         {"restitution", spec.drop.restitution},
         {"sleep_linear_m_s", spec.drop.sleep_linear_m_s},
         {"sleep_angular_rad_s", spec.drop.sleep_angular_rad_s}}},
-      {"camera",
-       {{"fx", cam.fx},
-        {"fy", cam.fy},
-        {"cx", cam.cx},
-        {"cy", cam.cy},
-        {"width", cam.width},
-        {"height", cam.height},
-        {"position_m", {t.x(), t.y(), t.z()}},
-        {"quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}}},
-      {"noise",
-       {{"enabled", noise.enabled},
-        {"grazing_angle_deg", noise.grazing_angle_deg},
-        {"edge_jump_m", noise.edge_jump_m},
-        {"edge_dropout_probability", noise.edge_dropout_probability},
-        {"sigma_base_m", noise.sigma_base_m},
-        {"sigma_quadratic_per_m", noise.sigma_quadratic_per_m}}},
+      {"camera", camera},
+      {"noise", NoiseToJson(spec.render.noise)},
   };
 }
 
@@ -422,12 +404,9 @@ core::Result<SceneSpec> SceneSpecFromJson(const json& j) {
     get(d, "sleep_linear_m_s", &spec.drop.sleep_linear_m_s);
     get(d, "sleep_angular_rad_s", &spec.drop.sleep_angular_rad_s);
     const json& c = j.at("camera");
-    get(c, "fx", &spec.render.camera.fx);
-    get(c, "fy", &spec.render.camera.fy);
-    get(c, "cx", &spec.render.camera.cx);
-    get(c, "cy", &spec.render.camera.cy);
-    get(c, "width", &spec.render.camera.width);
-    get(c, "height", &spec.render.camera.height);
+    auto camera = codec::CameraFromJson(c, "camera");
+    if (!camera) return camera.error();
+    spec.render.camera = camera.value();
     std::array<double, 3> position{};
     std::array<double, 4> xyzw{};
     get(c, "position_m", &position);

@@ -75,16 +75,18 @@ bool SimScene::Remove(int instance_id) {
   return true;
 }
 
+nlohmann::json TransformToJson(const Eigen::Isometry3d& transform) {
+  const Eigen::Vector3d t = transform.translation();
+  const Eigen::Quaterniond q(transform.rotation());
+  return {{"position_m", {t.x(), t.y(), t.z()}}, {"quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
+}
+
 nlohmann::json PlacedObjectToJson(const PlacedObject& placed) {
-  const Eigen::Vector3d t = placed.world_from_object.translation();
-  const Eigen::Quaterniond q(placed.world_from_object.rotation());
-  nlohmann::json j;
+  nlohmann::json j = TransformToJson(placed.world_from_object);
   j["instance_id"] = placed.instance_id;
   j["category"] = placed.object ? placed.object->category : "";
   j["shape"] = placed.object ? placed.object->shape : nlohmann::json::object();
   j["mass_kg"] = placed.object ? placed.object->mass_kg : 0.0;
-  j["position_m"] = {t.x(), t.y(), t.z()};
-  j["quaternion_xyzw"] = {q.x(), q.y(), q.z(), q.w()};
   return j;
 }
 

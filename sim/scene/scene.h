@@ -88,6 +88,10 @@ struct SimScene {
   bool Remove(int instance_id);
 };
 
+/// A rigid transform as the manifests write it (world_from_object, world_from_camera):
+/// {"position_m": [x, y, z], "quaternion_xyzw": [x, y, z, w]}.
+nlohmann::json TransformToJson(const Eigen::Isometry3d& transform);
+
 /// JSON for manifests: {"instance_id", "category", "shape", "mass_kg", "position_m": [x,y,z],
 /// "quaternion_xyzw": [x,y,z,w]} per object (world_from_object).
 nlohmann::json PlacedObjectToJson(const PlacedObject& placed);

@@ -58,6 +58,12 @@ cv::Mat1f MapOf(float left, float right) {
   return map;
 }
 
+// An image the preprocessing cannot use: no pixel measured.
+struct NoMeasurements {
+  core::DepthImage depth{cv::Mat1f(48, 64, std::nanf(""))};
+  core::Camera camera{525.0, 525.0, 31.5, 23.5, 64, 48};
+};
+
 Plan MustPlan(const PlanOptions& options, const Models& models = {}) {
   auto plan = PlanGrasps(Scene().synth.depth, Scene().synth.camera, options, models);
   EXPECT_TRUE(plan.ok()) << plan.error().message;
@@ -235,15 +241,66 @@ TEST(PlanGrasps, RefusesWhatTheCallerGotWrong) {
   o = {};
   o.fge.num_angles = 0;  // the planner refuses it
   EXPECT_EQ(error(o).code, core::ErrorCode::kInvalidArgument);
-  // An image the preprocessing cannot use.
-  core::DepthImage empty;
-  empty.depth_m = cv::Mat1f(48, 64, std::nanf(""));
-  core::Camera camera = Scene().synth.camera;
-  camera.width = 64;
-  camera.height = 48;
-  auto plan = PlanGrasps(empty, camera, {}, {});
+  const NoMeasurements empty;
+  auto plan = PlanGrasps(empty.depth, empty.camera, {}, {});
   ASSERT_FALSE(plan.ok());
   EXPECT_EQ(plan.error().code, core::ErrorCode::kUnprocessable);
+}
+
+// Without a model the PCL baseline segments; each box is one instance, described with its size
+// and height, and the stiffness model's mean when one is loaded.
+TEST(Segment, FindsEachBoxAndDescribesIt) {
+  SegmentOptions options;
+  options.describe = true;
+  auto found = Segment(Scene().synth.depth, Scene().synth.camera, options, {});
+  ASSERT_TRUE(found.ok()) << found.error().message;
+  const Segmentation& s = found.value();
+  EXPECT_EQ(s.instances.method, segmentation::Method::kPcl);
+  ASSERT_EQ(s.instances.masks.count(), 2);
+  ASSERT_EQ(s.described.size(), 2u);
+  std::set<int> boxes;
+  for (const segmentation::InstanceInfo& info : s.described) {
+    // Most of an instance's pixels lie on one box; the box's top is 40 mm above the table.
+    const int box = Scene().synth.object_id(static_cast<int>(std::lround(info.centroid_px[1])),
+                                            static_cast<int>(std::lround(info.centroid_px[0])));
+    boxes.insert(box);
+    EXPECT_NEAR(info.top_height_m, 0.04, 0.004);
+    EXPECT_FALSE(info.mean_stiffness.has_value());
+  }
+  EXPECT_EQ(boxes, (std::set<int>{1, 2}));
+  EXPECT_EQ(s.timing.stiffness_ms, 0.0);
+
+  // Not described unless asked; the stiffness model runs only to describe.
+  options.describe = false;
+  auto bare =
+      Segment(Scene().synth.depth, Scene().synth.camera, options, {ShippedStiffness(), nullptr});
+  ASSERT_TRUE(bare.ok());
+  EXPECT_TRUE(bare.value().described.empty());
+  EXPECT_EQ(bare.value().timing.stiffness_ms, 0.0);
+  options.describe = true;
+  auto with_stiffness =
+      Segment(Scene().synth.depth, Scene().synth.camera, options, {ShippedStiffness(), nullptr});
+  ASSERT_TRUE(with_stiffness.ok());
+  for (const auto& info : with_stiffness.value().described) {
+    ASSERT_TRUE(info.mean_stiffness.has_value());
+    EXPECT_GE(*info.mean_stiffness, 0.0);
+    EXPECT_LE(*info.mean_stiffness, 1.0);
+  }
+  EXPECT_GT(with_stiffness.value().timing.stiffness_ms, 0.0);
+}
+
+TEST(Segment, RefusesTheModelWhenNoneIsLoadedAndAnUnusableImage) {
+  SegmentOptions options;
+  options.method = segmentation::Method::kModel;
+  auto refused = Segment(Scene().synth.depth, Scene().synth.camera, options, {});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, core::ErrorCode::kUnavailable);
+  EXPECT_EQ(refused.error().field, "method");
+
+  const NoMeasurements empty;
+  auto unusable = Segment(empty.depth, empty.camera, {}, {});
+  ASSERT_FALSE(unusable.ok());
+  EXPECT_EQ(unusable.error().code, core::ErrorCode::kUnprocessable);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 
 #include "service/cli/args.h"
 #include "service/cli/files.h"
+#include "service/codec/json_codec.h"
 #include "service/core/fge_deformability.h"
 #include "service/engine/engine.h"
 #include "service/models/segmentation_model.h"
@@ -534,13 +535,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
               {"stiffness_model", stiffness_path.empty() ? json() : json(stiffness_path)},
               {"seed", seed},
               {"opening_fractions", models.deformability.opening_fractions},
-              {"gripper",
-               {{"opening_stroke_mm", gripper.opening_stroke_m * 1e3},
-                {"finger_width_mm", gripper.finger_width_m * 1e3},
-                {"finger_thickness_mm", gripper.finger_thickness_m * 1e3},
-                {"finger_length_mm", gripper.finger_length_m * 1e3},
-                {"closing_force_n", gripper.closing_force_n},
-                {"max_press_force_n", gripper.max_press_force_n}}},
+              {"gripper", codec::ToJson(gripper)},
               {"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}},
               {"tasks", json::object()}};
   for (const Task task : tasks) {

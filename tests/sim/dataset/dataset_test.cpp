@@ -493,7 +493,7 @@ TEST(SceneSpecJson, BrokenSpecsNameTheKey) {
   EXPECT_EQ(SceneSpecFromJson(j).error().code, core::ErrorCode::kInvalidArgument);
   j = good;
   j["camera"]["width"] = 0;
-  EXPECT_EQ(SceneSpecFromJson(j).error().field, "camera");
+  EXPECT_EQ(SceneSpecFromJson(j).error().field, "camera.width");
   j = good;
   j["user_objects"] = 2;
   EXPECT_EQ(SceneSpecFromJson(j).error().code, core::ErrorCode::kUnprocessable);
