@@ -191,11 +191,17 @@ TEST(CommandTrackerTest, RobotChoiceNoneSeveralAndNamed) {
   auto at_right = right->WaitForCommand(10.0);
   ASSERT_TRUE(at_right && at_right.value());
   EXPECT_EQ(at_right.value()->command_id, "c1");
-  EXPECT_FALSE(left->WaitForCommand(0.5).value().has_value());
   // Nothing was written for the three refused submissions: poses come in order, so once the
   // accepted one's pose is here, any written before it is too.
   ASSERT_GE(WaitUntil([&] { return poses.Seen(named.position_m); }, 5.0), 0.0);
   EXPECT_EQ(poses.count(), 1);
+  // c1 never reached the left arm: a command sent to it after c1 is the first it executes.
+  GraspCommand for_left = Command("c2");
+  for_left.robot_id = "arm-left";
+  ASSERT_TRUE(tracker->Submit(for_left, "fp"));
+  auto at_left = left->WaitForCommand(10.0);
+  ASSERT_TRUE(at_left && at_left.value());
+  EXPECT_EQ(at_left.value()->command_id, "c2");
 }
 
 TEST(CommandTrackerTest, NoResultInTimeBecomesTimedOutAndIsWithdrawnFromTheBus) {
@@ -288,8 +294,12 @@ TEST(CommandTrackerTest, ResultWrittenWhileTheServiceWasDownArrivesAfterRestart)
   ASSERT_TRUE(tracker);
   EXPECT_GE(WaitUntil([&] { return StateOf(*tracker, "mid") == CommandState::kSucceeded; }, 10.0),
             0.0);
-  // The re-sent command was not run again: the robot delivers each id once.
-  EXPECT_FALSE(robot->WaitForCommand(0.5).value().has_value());
+  // The re-sent command was not run again: the robot delivers each id once, so the next command
+  // it executes is the one submitted after the restart.
+  ASSERT_TRUE(tracker->Submit(Command("after"), "fp"));
+  auto next = robot->WaitForCommand(10.0);
+  ASSERT_TRUE(next && next.value());
+  EXPECT_EQ(next.value()->command_id, "after");
 }
 
 TEST(CommandTrackerTest, BadJournalRecordsAreSkippedWithWarnings) {
