@@ -8,16 +8,7 @@
 // with the zero-area triangles triangulation can produce).
 #include "service/mesh/stable_poses.h"
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wold-style-cast"
-#pragma GCC diagnostic ignored "-Wpedantic"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wcast-qual"
-#pragma GCC diagnostic ignored "-Wuseless-cast"
-#pragma GCC diagnostic ignored "-Wsign-conversion"
-#pragma GCC diagnostic ignored "-Wconversion"
 #include <libqhull_r/qhull_ra.h>
-#pragma GCC diagnostic pop
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -27,7 +18,6 @@
 #include <limits>
 #include <map>
 #include <memory>
-#include <numeric>
 #include <string>
 #include <utility>
 

@@ -58,9 +58,11 @@ struct StablePose {
 /// when the enclosed volume is not positive.
 Eigen::Vector3d VolumeCentroid(const TriangleMesh& mesh);
 
-/// The stable poses of `mesh` sorted by probability, highest first (ties: by facet, in a fixed
-/// order that depends only on the input). Only the vertices are used, plus the faces for the
-/// default COM. Pure: no I/O.
+/// The stable poses of `mesh` sorted by probability, highest first (equal probabilities: by
+/// face_vertex_indices, lexicographically). Only the vertices are used, plus the faces for the
+/// default COM. Hull facets that are flat within 1e-6 of the bounding-box diagonal count as one
+/// facet, and a COM projecting within that distance outside a facet still rests on it.
+/// Deterministic; pure (no I/O, nothing printed).
 /// Errors (kUnprocessable): fewer than 4 vertices, a non-finite coordinate, all vertices coplanar
 /// or otherwise no 3-d hull (field "mesh"); no usable default COM (open or inward mesh) or a COM
 /// not strictly inside the hull (field "center_of_mass"); kInvalidArgument for a negative or

@@ -273,12 +273,13 @@ TEST(StablePosesTest, IcosphereFacesAreAllStableAndAlike) {
     low = std::min(low, pose.probability);
     high = std::max(high, pose.probability);
   }
-  // 1/1280 = 7.8e-4 on average. Midpoint subdivision of the icosahedron keeps every spherical
-  // triangle within a factor of 2 in area of every other (the corner triangles around the 12
-  // five-fold vertices are the smallest, the centre triangles of the original faces the largest).
-  EXPECT_LT(high, 2.0 / 1280);
-  EXPECT_GT(low, 0.5 / 1280);
-  EXPECT_LT(high / low, 2.0);
+  // 1/1280 = 7.8e-4 on average. Midpoint subdivision of the icosahedron with the new vertices
+  // pushed out to the sphere makes triangles of somewhat different sizes: here the largest
+  // subtends 1.20 / 1280 and the smallest 0.93 / 1280 (ratio 1.29). The bounds allow that and
+  // nothing like the spread of a UV sphere, whose polar triangles are many times smaller.
+  EXPECT_LT(high, 1.3 / 1280);
+  EXPECT_GT(low, 0.85 / 1280);
+  EXPECT_LT(high / low, 1.4);
   EXPECT_NEAR(Sum(poses.value()), 1.0, 1e-12);
   for (std::size_t i = 1; i < poses.value().size(); ++i) {
     EXPECT_GE(poses.value()[i - 1].probability, poses.value()[i].probability);
