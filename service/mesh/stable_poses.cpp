@@ -1,0 +1,391 @@
+// Stable poses on a table: Qhull's convex hull with coplanar facets merged, solid-angle priors
+// from the centre of mass, the toppling graph and its sinks (meshpy's stable_poses).
+//
+// Qhull runs WITHOUT "Qt": its facets are then convex polygons in which coplanar input triangles
+// are already merged (a cube gives 6 squares), so the sink test "does the projected COM fall
+// inside the facet" is a plain convex-polygon test on the whole flat face, and no second pass is
+// needed to glue coplanar triangles back together (with "Qt" that pass would also have to cope
+// with the zero-area triangles triangulation can produce).
+#include "service/mesh/stable_poses.h"
+
+#include <libqhull_r/qhull_ra.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+
+namespace softgrasp::mesh {
+namespace {
+
+/// Geometry within this fraction of the bounding-box diagonal counts as flat / on the boundary:
+///  - Qhull merges neighbouring facets whose centrums lie within it of each other's planes
+///    ("C-n" pre-merge), so faces that are flat up to float32 rounding of the coordinates
+///    (~6e-8 relative) become one pose;
+///  - a projected COM that far outside a facet edge still counts as resting on that facet (a
+///    COM exactly above an edge is in neutral balance; rounding must not make it topple);
+///  - the COM must lie at least that far inside every hull facet.
+/// At 1e-6 a 1 m object tolerates 1 um: far below any real table or part flatness, and far above
+/// double rounding (~1e-16 relative), so neither side of the choice is near a real effect.
+constexpr double kFlatTolerance = 1e-6;
+/// Segment distances closer than this fraction of the diagonal are ties when choosing the edge a
+/// facet topples over (the projected COM is closest to a corner, i.e. to two edges at once).
+constexpr double kTieTolerance = 1e-12;
+
+/// A convex hull facet: a convex polygon, counter-clockwise seen from outside, with its plane
+/// n . x = offset (n outward, unit length).
+struct HullFacet {
+  std::vector<int> vertices;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  double offset = 0.0;
+};
+
+/// Frees a Qhull instance on every path (the "qh_freeqhull, then qh_memfreeshort" pattern).
+class QhullInstance {
+ public:
+  QhullInstance() : qh_(std::make_unique<qhT>()) {}
+  QhullInstance(const QhullInstance&) = delete;
+  QhullInstance& operator=(const QhullInstance&) = delete;
+  ~QhullInstance() {
+    qh_freeqhull(qh_.get(), !qh_ALL);
+    int still_long = 0, total_long = 0;
+    qh_memfreeshort(qh_.get(), &still_long, &total_long);
+    if (err_ != nullptr) std::fclose(err_);
+  }
+  qhT* get() { return qh_.get(); }
+  /// Qhull's messages go here, never to stdout/stderr. Null when /dev/null cannot be opened.
+  FILE* err() const { return err_; }
+
+ private:
+  std::unique_ptr<qhT> qh_;
+  FILE* err_ = std::fopen("/dev/null", "w");
+};
+
+/// The elements of a null-terminated Qhull set.
+template <class T>
+std::vector<T*> SetElements(setT* set) {
+  std::vector<T*> out;
+  if (set == nullptr) return out;
+  const setelemT* e = set->e;
+  for (int i = 0; e[i].p != nullptr; ++i) out.push_back(static_cast<T*>(e[i].p));
+  return out;
+}
+
+/// Convex hull facets of `points` (Qhull, coplanar facets merged within `merge_distance`), each
+/// polygon sorted counter-clockwise around its outward normal. Empty on Qhull failure, with the
+/// exit code in `exit_code`.
+std::vector<HullFacet> ConvexHullFacets(const std::vector<Eigen::Vector3d>& points,
+                                        double merge_distance, int& exit_code) {
+  std::vector<HullFacet> facets;
+  QhullInstance instance;
+  if (instance.err() == nullptr) {
+    exit_code = -1;
+    return facets;
+  }
+  qhT* qh = instance.get();
+  qh_zero(qh, instance.err());
+  std::vector<coordT> coords;
+  coords.reserve(points.size() * 3);
+  for (const Eigen::Vector3d& p : points) coords.insert(coords.end(), {p.x(), p.y(), p.z()});
+  std::array<char, 64> command{};
+  std::snprintf(command.data(), command.size(), "qhull C-%.9g", merge_distance);
+  exit_code = qh_new_qhull(qh, 3, static_cast<int>(points.size()), coords.data(), False,
+                           command.data(), nullptr, instance.err());
+  if (exit_code != 0) return facets;
+
+  for (facetT* facet = qh->facet_list; facet != nullptr && facet->next != nullptr;
+       facet = facet->next) {
+    if (facet->visible) continue;
+    HullFacet out;
+    out.normal = Eigen::Vector3d(facet->normal[0], facet->normal[1], facet->normal[2]);
+    out.offset = -facet->offset;  // Qhull's plane: normal . x + offset = 0
+    for (vertexT* vertex : SetElements<vertexT>(facet->vertices)) {
+      out.vertices.push_back(qh_pointid(qh, vertex->point));
+    }
+    facets.push_back(std::move(out));
+  }
+
+  // Sort each polygon by angle around its centroid, counter-clockwise about the outward normal.
+  for (HullFacet& f : facets) {
+    const Eigen::Vector3d& n = f.normal;
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (int v : f.vertices) centroid += points[static_cast<std::size_t>(v)];
+    centroid /= static_cast<double>(f.vertices.size());
+    const Eigen::Vector3d u = n.unitOrthogonal();
+    const Eigen::Vector3d w = n.cross(u);
+    std::vector<std::pair<double, int>> by_angle;
+    for (int v : f.vertices) {
+      const Eigen::Vector3d d = points[static_cast<std::size_t>(v)] - centroid;
+      by_angle.emplace_back(std::atan2(d.dot(w), d.dot(u)), v);
+    }
+    std::sort(by_angle.begin(), by_angle.end());
+    for (std::size_t i = 0; i < by_angle.size(); ++i) f.vertices[i] = by_angle[i].second;
+    // Start at the smallest index so the polygon does not depend on Qhull's vertex order.
+    std::rotate(f.vertices.begin(), std::min_element(f.vertices.begin(), f.vertices.end()),
+                f.vertices.end());
+  }
+  return facets;
+}
+
+/// Solid angle of triangle (a, b, c) seen from the origin (Van Oosterom & Strackee 1983); positive
+/// when a, b, c run counter-clockwise seen from the origin's far side (outward from inside).
+double TriangleSolidAngle(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                          const Eigen::Vector3d& c) {
+  const double la = a.norm(), lb = b.norm(), lc = c.norm();
+  const double numerator = a.dot(b.cross(c));
+  const double denominator = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+  return 2.0 * std::atan2(numerator, denominator);
+}
+
+core::Error Unprocessable(std::string message, std::string field) {
+  return core::MakeError(core::ErrorCode::kUnprocessable, std::move(message), std::move(field));
+}
+
+}  // namespace
+
+Eigen::Vector3d VolumeCentroid(const TriangleMesh& mesh) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Eigen::Vector3d invalid(nan, nan, nan);
+  if (mesh.vertices.empty() || mesh.faces.empty()) return invalid;
+  const int n = static_cast<int>(mesh.vertices.size());
+  auto at = [&](int i) {
+    const auto& v = mesh.vertices[static_cast<std::size_t>(i)];
+    return Eigen::Vector3d(v[0], v[1], v[2]);
+  };
+  // Tetrahedra from a vertex of the mesh rather than the origin keep far-away meshes accurate.
+  const Eigen::Vector3d reference = at(0);
+  double six_volume = 0.0;
+  Eigen::Vector3d weighted = Eigen::Vector3d::Zero();
+  for (const auto& f : mesh.faces) {
+    for (int i : f) {
+      if (i < 0 || i >= n) return invalid;
+    }
+    const Eigen::Vector3d a = at(f[0]) - reference, b = at(f[1]) - reference,
+                          c = at(f[2]) - reference;
+    const double v6 = a.dot(b.cross(c));
+    six_volume += v6;
+    weighted += v6 * (a + b + c);
+  }
+  if (!(six_volume > 0.0) || !std::isfinite(six_volume)) return invalid;
+  return reference + weighted / (4.0 * six_volume);
+}
+
+core::Result<std::vector<StablePose>> ComputeStablePoses(const TriangleMesh& mesh,
+                                                         const StablePoseOptions& options) {
+  if (!std::isfinite(options.min_probability) || options.min_probability < 0.0) {
+    return core::MakeError(core::ErrorCode::kInvalidArgument,
+                           "min_probability must be a finite number >= 0", "min_probability");
+  }
+  if (mesh.vertices.size() < 4) {
+    return Unprocessable("a mesh needs at least 4 vertices to rest on a table, got " +
+                             std::to_string(mesh.vertices.size()),
+                         "mesh");
+  }
+  if (mesh.vertices.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) {
+    return Unprocessable("too many vertices", "mesh");
+  }
+  std::vector<Eigen::Vector3d> points;
+  points.reserve(mesh.vertices.size());
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const auto& v : mesh.vertices) {
+    const Eigen::Vector3d p(v[0], v[1], v[2]);
+    if (!p.allFinite()) return Unprocessable("a vertex has a non-finite coordinate", "mesh");
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+    points.push_back(p);
+  }
+  const double diagonal = (hi - lo).norm();
+  if (!(diagonal > 0.0) || !std::isfinite(diagonal)) {
+    return Unprocessable("all vertices coincide (or the mesh is too large to measure)", "mesh");
+  }
+  const double flat = kFlatTolerance * diagonal;
+
+  Eigen::Vector3d com;
+  if (options.center_of_mass) {
+    com = *options.center_of_mass;
+    if (!com.allFinite()) {
+      return Unprocessable("center_of_mass has a non-finite coordinate", "center_of_mass");
+    }
+  } else {
+    com = VolumeCentroid(mesh);
+    if (!com.allFinite()) {
+      return Unprocessable(
+          "the mesh encloses no positive volume (open, inward-facing or bad face indices), so it "
+          "has no default centre of mass; pass center_of_mass",
+          "center_of_mass");
+    }
+  }
+
+  int exit_code = 0;
+  std::vector<HullFacet> facets = ConvexHullFacets(points, flat, exit_code);
+  if (exit_code == -1) {
+    return core::MakeError(core::ErrorCode::kInternal, "cannot open /dev/null for Qhull");
+  }
+  if (exit_code != 0 || facets.size() < 4) {
+    return Unprocessable(
+        "the vertices have no 3-d convex hull (all coplanar or nearly so; Qhull exit code " +
+            std::to_string(exit_code) + ")",
+        "mesh");
+  }
+  const std::size_t num_facets = facets.size();
+
+  // Heights of the COM above each facet plane (positive inside) and the priors.
+  std::vector<double> height(num_facets), prior(num_facets, 0.0);
+  double total_angle = 0.0;
+  for (std::size_t i = 0; i < num_facets; ++i) {
+    const HullFacet& f = facets[i];
+    height[i] = f.offset - f.normal.dot(com);
+    if (!(height[i] > flat)) {
+      return Unprocessable("the centre of mass is not strictly inside the convex hull",
+                           "center_of_mass");
+    }
+    const Eigen::Vector3d first = points[static_cast<std::size_t>(f.vertices[0])] - com;
+    for (std::size_t k = 1; k + 1 < f.vertices.size(); ++k) {
+      prior[i] += TriangleSolidAngle(first, points[static_cast<std::size_t>(f.vertices[k])] - com,
+                                     points[static_cast<std::size_t>(f.vertices[k + 1])] - com);
+    }
+    total_angle += prior[i];
+  }
+  // total_angle is 4 pi up to rounding; dividing by it makes the priors sum to 1.
+  for (double& p : prior) p /= total_angle;
+
+  // Facets by vertex, to find the neighbour across an edge (the other facet holding both ends).
+  std::map<int, std::vector<int>> facets_of_vertex;
+  for (std::size_t i = 0; i < num_facets; ++i) {
+    for (int v : facets[i].vertices) facets_of_vertex[v].push_back(static_cast<int>(i));
+  }
+
+  // The toppling graph: next[i] = facet i topples onto, -1 for a sink.
+  std::vector<int> next(num_facets, -1);
+  for (std::size_t i = 0; i < num_facets; ++i) {
+    const HullFacet& f = facets[i];
+    const Eigen::Vector3d projected = com + height[i] * f.normal;
+    const std::size_t m = f.vertices.size();
+    double max_outside = -std::numeric_limits<double>::infinity();
+    int best_edge = -1;
+    double best_distance = std::numeric_limits<double>::infinity(), best_outside = 0.0;
+    for (std::size_t k = 0; k < m; ++k) {
+      const Eigen::Vector3d a = points[static_cast<std::size_t>(f.vertices[k])];
+      const Eigen::Vector3d b = points[static_cast<std::size_t>(f.vertices[(k + 1) % m])];
+      const Eigen::Vector3d edge = b - a;
+      const double length = edge.norm();
+      if (!(length > 0.0)) continue;
+      // For a counter-clockwise polygon about n, edge x n points out of the polygon.
+      const double outside = (projected - a).dot(edge.cross(f.normal)) / length;
+      max_outside = std::max(max_outside, outside);
+      const double t = std::clamp((projected - a).dot(edge) / (length * length), 0.0, 1.0);
+      const double distance = (projected - (a + t * edge)).norm();
+      const double tie = kTieTolerance * diagonal;
+      if (distance < best_distance - tie ||
+          (distance <= best_distance + tie && outside > best_outside)) {
+        best_edge = static_cast<int>(k);
+        best_distance = distance;
+        best_outside = outside;
+      }
+    }
+    if (max_outside <= flat || best_edge < 0) continue;  // sink: COM above the facet
+    const int a = f.vertices[static_cast<std::size_t>(best_edge)];
+    const int b = f.vertices[(static_cast<std::size_t>(best_edge) + 1) % m];
+    int neighbour = -1;
+    for (int g : facets_of_vertex[a]) {
+      if (g == static_cast<int>(i)) continue;
+      const auto& gv = facets[static_cast<std::size_t>(g)].vertices;
+      if (std::find(gv.begin(), gv.end(), b) != gv.end()) {
+        neighbour = g;
+        break;
+      }
+    }
+    if (neighbour < 0) {
+      return core::MakeError(core::ErrorCode::kInternal,
+                             "convex hull facet has no neighbour across an edge");
+    }
+    next[i] = neighbour;
+  }
+
+  // Cut cycles (possible only through rounding): each is cut at its facet with the lowest COM
+  // height, which becomes a sink, so the whole cycle ends there.
+  {
+    std::vector<char> state(num_facets, 0);  // 0 unseen, 1 on the current path, 2 finished
+    for (std::size_t start = 0; start < num_facets; ++start) {
+      std::vector<int> path;
+      int current = static_cast<int>(start);
+      while (state[static_cast<std::size_t>(current)] == 0 &&
+             next[static_cast<std::size_t>(current)] >= 0) {
+        state[static_cast<std::size_t>(current)] = 1;
+        path.push_back(current);
+        current = next[static_cast<std::size_t>(current)];
+      }
+      if (state[static_cast<std::size_t>(current)] == 1) {
+        int lowest = current;
+        for (auto it = std::find(path.begin(), path.end(), current); it != path.end(); ++it) {
+          const double h = height[static_cast<std::size_t>(*it)];
+          const double l = height[static_cast<std::size_t>(lowest)];
+          if (h < l || (h == l && *it < lowest)) lowest = *it;
+        }
+        next[static_cast<std::size_t>(lowest)] = -1;
+      }
+      state[static_cast<std::size_t>(current)] = 2;
+      for (int p : path) state[static_cast<std::size_t>(p)] = 2;
+    }
+  }
+  // Follow the (now acyclic) graph to the sinks, remembering every answer on the way.
+  std::vector<int> sink(num_facets, -1);
+  for (std::size_t start = 0; start < num_facets; ++start) {
+    std::vector<int> path;
+    int current = static_cast<int>(start);
+    while (sink[static_cast<std::size_t>(current)] < 0 &&
+           next[static_cast<std::size_t>(current)] >= 0) {
+      path.push_back(current);
+      current = next[static_cast<std::size_t>(current)];
+    }
+    const int reached = sink[static_cast<std::size_t>(current)] >= 0
+                            ? sink[static_cast<std::size_t>(current)]
+                            : current;
+    sink[static_cast<std::size_t>(current)] = reached;
+    for (int p : path) sink[static_cast<std::size_t>(p)] = reached;
+  }
+
+  std::vector<double> probability(num_facets, 0.0);
+  for (std::size_t i = 0; i < num_facets; ++i) {
+    probability[static_cast<std::size_t>(sink[i])] += prior[i];
+  }
+
+  std::vector<StablePose> poses;
+  for (std::size_t i = 0; i < num_facets; ++i) {
+    if (!(probability[i] > options.min_probability)) continue;
+    const HullFacet& f = facets[i];
+    StablePose pose;
+    pose.probability = probability[i];
+    pose.face_normal_object = f.normal;
+    pose.com_height_m = height[i];
+    pose.face_vertex_indices = f.vertices;
+    // Table axes in object coordinates: z = -n; x = the object axis least aligned with n,
+    // projected into the facet plane; y = z x x.
+    const Eigen::Vector3d z = -f.normal;
+    Eigen::Index axis = 0;
+    f.normal.cwiseAbs().minCoeff(&axis);
+    const Eigen::Vector3d e = Eigen::Vector3d::Unit(axis);
+    const Eigen::Vector3d x = (e - e.dot(z) * z).normalized();
+    const Eigen::Vector3d y = z.cross(x);
+    pose.table_from_object_rotation.row(0) = x.transpose();
+    pose.table_from_object_rotation.row(1) = y.transpose();
+    pose.table_from_object_rotation.row(2) = z.transpose();
+    pose.table_from_object_translation =
+        Eigen::Vector3d(0.0, 0.0, height[i]) - pose.table_from_object_rotation * com;
+    poses.push_back(std::move(pose));
+  }
+  std::sort(poses.begin(), poses.end(), [](const StablePose& a, const StablePose& b) {
+    if (a.probability != b.probability) return a.probability > b.probability;
+    return a.face_vertex_indices < b.face_vertex_indices;
+  });
+  return poses;
+}
+
+}  // namespace softgrasp::mesh
