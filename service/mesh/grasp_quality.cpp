@@ -81,8 +81,74 @@ Eigen::Vector3d FirstTangent(const Eigen::Vector3d& n, const Eigen::Vector3d& po
   return *OrthogonalPart(n, Eigen::Vector3d::Unit(axis));
 }
 
-/// Distance from the origin to the boundary of conv(columns) if the origin is strictly inside
-/// (Qhull, 6-D, triangulated output), else 0.
+/// What one Qhull run found.
+enum class HullOutcome { kFailed, kOriginNotInside, kOriginInside };
+
+/// Runs Qhull on the 6-D points with `flags`. kOriginInside sets `distance` to the smallest
+/// distance from the origin to a facet hyperplane. With `verify`, a facet that some point lies
+/// beyond by more than `tolerance` makes the run kFailed (unmerged hulls may be slightly
+/// non-convex). Qhull's messages go to a private memory stream that is discarded.
+HullOutcome RunQhull(std::vector<coordT>& points, int count, const char* flags, bool verify,
+                     double tolerance, double& distance) {
+  char* message_buffer = nullptr;
+  std::size_t message_size = 0;
+  FILE* errfile = open_memstream(&message_buffer, &message_size);
+  if (errfile == nullptr) return HullOutcome::kFailed;
+
+  qhT qh_storage;
+  qhT* qh = &qh_storage;
+  qh_zero(qh, errfile);
+  std::string command = flags;
+  const int exit_code =
+      qh_new_qhull(qh, 6, count, points.data(), False, command.data(), nullptr, errfile);
+
+  HullOutcome outcome = HullOutcome::kFailed;
+  if (exit_code == 0) {
+    double min_distance = std::numeric_limits<double>::infinity();
+    bool inside = true;
+    bool valid = true;
+    int facets = 0;
+    for (facetT* facet = qh->facet_list; facet != nullptr && facet->next != nullptr;
+         facet = facet->next) {
+      ++facets;
+      // Outward unit normal, offset: normal . x + offset = 0 on the hyperplane, < 0 inside.
+      const double offset = facet->offset;
+      if (!std::isfinite(offset)) {
+        valid = false;
+        break;
+      }
+      if (verify) {
+        for (int j = 0; j < count && valid; ++j) {
+          double side = offset;
+          for (int i = 0; i < 6; ++i) {
+            side += facet->normal[i] * points[static_cast<std::size_t>(6 * j + i)];
+          }
+          valid = side <= tolerance;
+        }
+        if (!valid) break;
+      }
+      if (offset >= -tolerance) inside = false;
+      min_distance = std::min(min_distance, -offset);
+    }
+    if (valid && facets > 0) {
+      outcome = inside ? HullOutcome::kOriginInside : HullOutcome::kOriginNotInside;
+      distance = min_distance;
+    }
+  }
+
+  qh_freeqhull(qh, !qh_ALL);
+  int curlong = 0;
+  int totlong = 0;
+  qh_memfreeshort(qh, &curlong, &totlong);
+  std::fclose(errfile);
+  std::free(message_buffer);
+  return outcome;
+}
+
+/// Distance from the origin to the boundary of conv(columns) if the origin is strictly inside,
+/// else 0. Qhull first runs without merging ("Q0", several times faster on these small, nearly
+/// degenerate sets) and its facets are checked to support every point; if that run fails or a
+/// check fails, Qhull runs again with its default merging of coplanar facets.
 double HullQuality(const Wrenches& w) {
   const Eigen::Index m = w.cols();
   if (m < 7 || !w.allFinite()) return 0.0;
@@ -101,47 +167,14 @@ double HullQuality(const Wrenches& w) {
   for (Eigen::Index j = 0; j < m; ++j) {
     for (int i = 0; i < 6; ++i) points[static_cast<std::size_t>(6 * j + i)] = w(i, j);
   }
-
-  // Qhull's messages go to a private memory stream that is discarded.
-  char* message_buffer = nullptr;
-  std::size_t message_size = 0;
-  FILE* errfile = open_memstream(&message_buffer, &message_size);
-  if (errfile == nullptr) return 0.0;
-
-  qhT qh_storage;
-  qhT* qh = &qh_storage;
-  qh_zero(qh, errfile);
-  char flags[] = "qhull Qt";
-  const int exit_code =
-      qh_new_qhull(qh, 6, static_cast<int>(m), points.data(), False, flags, nullptr, errfile);
-
-  double quality = 0.0;
-  if (exit_code == 0) {
-    const double eps = 1e-12 * scale;
-    double min_distance = std::numeric_limits<double>::infinity();
-    bool inside = true;
-    int facets = 0;
-    for (facetT* facet = qh->facet_list; facet != nullptr && facet->next != nullptr;
-         facet = facet->next) {
-      ++facets;
-      // Outward unit normal, offset: normal . x + offset = 0 on the hyperplane, < 0 inside.
-      const double offset = facet->offset;
-      if (!std::isfinite(offset) || offset >= -eps) {
-        inside = false;
-        break;
-      }
-      min_distance = std::min(min_distance, -offset);
-    }
-    if (inside && facets > 0 && std::isfinite(min_distance)) quality = min_distance;
+  const int count = static_cast<int>(m);
+  const double tolerance = 1e-12 * scale;
+  double distance = 0.0;
+  HullOutcome outcome = RunQhull(points, count, "qhull Q0", true, tolerance, distance);
+  if (outcome == HullOutcome::kFailed) {
+    outcome = RunQhull(points, count, "qhull", false, tolerance, distance);
   }
-
-  qh_freeqhull(qh, !qh_ALL);
-  int curlong = 0;
-  int totlong = 0;
-  qh_memfreeshort(qh, &curlong, &totlong);
-  std::fclose(errfile);
-  std::free(message_buffer);
-  return quality;
+  return outcome == HullOutcome::kOriginInside ? distance : 0.0;
 }
 
 /// exp([xi]x): Rodrigues; exactly the identity for xi = 0.

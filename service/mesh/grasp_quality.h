@@ -87,7 +87,11 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> GraspMatrix(const Contact& a, const Con
 /// Ferrari-Canny L1 of a wrench set: 0 unless the origin lies strictly inside the convex hull of
 /// the columns (hull of full dimension 6 and every facet at a positive distance), else the
 /// smallest distance from the origin to a facet hyperplane (the radius of the largest ball about
-/// the origin inside the hull). 0 for fewer than 7 columns or non-finite entries.
+/// the origin inside the hull). 0 for fewer than 7 columns or non-finite entries, and for a set
+/// that is flat to within 1e-10 (smallest over largest singular value of the centred columns).
+/// The origin counts as inside when every facet is farther than 1e-12 times the largest column
+/// norm. Dex-Net instead tests the origin with a min-norm QP against `wrench_norm_thresh` 0.001
+/// and takes each facet's min-norm point; for an interior origin both give the same minimum.
 double FerrariCannyL1(const Eigen::Matrix<double, 6, Eigen::Dynamic>& wrenches);
 
 /// Ferrari-Canny L1 of the grasp on contacts `a`, `b`: FerrariCannyL1(GraspMatrix(...)).

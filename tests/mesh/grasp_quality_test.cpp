@@ -276,6 +276,32 @@ TEST(GraspQualityTest, FerrariCannyMatchesBruteForceFacetEnumeration) {
   }
 }
 
+// The cross-polytope conv(+-e_i) in 6-D has 64 facets x . sign = 1, each at distance 1/sqrt(6)
+// from the origin. Extra points on its boundary (scaled to |x|_1 = 1) leave the hull unchanged and
+// put many points on every facet.
+TEST(GraspQualityTest, FerrariCannyOfTheCrossPolytopeIsOneOverRootSix) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Wrenches w = Wrenches::Zero(6, 12 + 60);
+  for (int i = 0; i < 6; ++i) {
+    w(i, 2 * i) = 1.0;
+    w(i, 2 * i + 1) = -1.0;
+  }
+  for (int j = 12; j < w.cols(); ++j) {
+    for (int i = 0; i < 6; ++i) w(i, j) = uniform(rng);
+    w.col(j) /= w.col(j).lpNorm<1>();
+  }
+  EXPECT_NEAR(FerrariCannyL1(w), 1.0 / std::sqrt(6.0), 1e-12);
+  // Shifted by 1/sqrt(6) - 0.01 along a facet normal, the nearest facet is 0.01 away.
+  const Eigen::Matrix<double, 6, 1> facet_normal =
+      Eigen::Matrix<double, 6, 1>::Ones() / std::sqrt(6.0);
+  Wrenches shifted = w.colwise() - (1.0 / std::sqrt(6.0) - 0.01) * facet_normal;
+  EXPECT_NEAR(FerrariCannyL1(shifted), 0.01, 1e-12);
+  // Shifted past it, the origin is outside.
+  shifted = w.colwise() - (1.0 / std::sqrt(6.0) + 0.01) * facet_normal;
+  EXPECT_EQ(FerrariCannyL1(shifted), 0.0);
+}
+
 TEST(GraspQualityTest, FerrariCannyIsZeroWithoutFrictionOrOutsideTheCones) {
   QualityParams params;
   const auto [a, b] = CubeFaceCentres();
@@ -349,10 +375,17 @@ TEST(GraspQualityTest, FerrariCannyOfDegenerateInputIsZeroAndSilent) {
   EXPECT_EQ(FerrariCannyL1(Wrenches(6, 3)), 0.0);                         // too few columns
   Wrenches bad = GraspMatrix(a, b, Eigen::Vector3d::Zero(), params);
   EXPECT_EQ(FerrariCannyL1(Wrenches::Zero(6, 12)), 0.0);
-  // Nearly flat: one coordinate squeezed to 1e-9 of the rest reaches Qhull.
+  // Thin but full-dimensional (tau_x squeezed by 1e-6) reaches Qhull: the origin stays inside
+  // and the ball cannot be wider than the squeezed extent 1e-6 kappa, kappa = s pi r^2 mu.
   Wrenches thin = bad;
-  thin.row(3) *= 1e-9;
-  EXPECT_GE(FerrariCannyL1(thin), 0.0);
+  thin.row(3) *= 1e-6;
+  const double kappa = params.torque_scaling * std::numbers::pi * 0.005 * 0.005 * 0.5;
+  const double q_thin = FerrariCannyL1(thin);
+  EXPECT_GT(q_thin, 0.0);
+  EXPECT_LE(q_thin, 1e-6 * kappa * (1 + 1e-12));
+  // Squeezed by 1e-12 it counts as flat.
+  thin.row(3) *= 1e-6;
+  EXPECT_EQ(FerrariCannyL1(thin), 0.0);
   bad(2, 3) = nan;
   EXPECT_EQ(FerrariCannyL1(bad), 0.0);
   EXPECT_EQ(testing::internal::GetCapturedStdout(), "");
