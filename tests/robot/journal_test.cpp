@@ -363,13 +363,21 @@ TEST_F(JournalTest, AppendsDuringCompactionsAreNeitherLostNorDuplicated) {
   constexpr int kAppends = 150;
   std::atomic<bool> appending{true};
   std::atomic<int> append_errors{0};
+  std::atomic<int> compactions{0};
   std::thread appender([&] {
     for (int i = 0; i < kAppends; ++i) {
+      // Half-way, wait for a finished compaction, so appends meet more than one compaction
+      // however the threads are scheduled.
+      if (i == kAppends / 2) {
+        while (compactions.load() == 0) std::this_thread::yield();
+      }
       if (!opened.journal->Append("new-" + std::to_string(i))) ++append_errors;
     }
+    // And one more compaction after the last append (the loop below runs until this is false).
+    const int seen = compactions.load();
+    while (compactions.load() < std::max(seen + 1, 2)) std::this_thread::yield();
     appending = false;
   });
-  int compactions = 0;
   const auto keep = [](std::string_view payload) { return payload.substr(0, 4) != "old-"; };
   do {
     auto compacted = opened.journal->Compact(opened.journal->End(), keep);
