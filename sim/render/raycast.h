@@ -1,5 +1,6 @@
 #pragma once
-/// Ray queries against a whole simulated scene (support + objects, world frame W), on Embree 3.
+/// Ray queries against a whole simulated scene (support + objects, world frame W), over
+/// raycast::MeshRaycaster (Embree 3).
 /// Rendering (render.h) and grasp execution (sim/grasp) both ask their questions through this.
 
 #include <Eigen/Core>
@@ -33,21 +34,14 @@ class SceneRaycaster {
   SceneRaycaster& operator=(SceneRaycaster&&) noexcept;
   ~SceneRaycaster();
 
-  /// The first hit along origin_w + t * direction_w for t in [min_distance_m, max_distance_m];
-  /// direction_w need not be unit length (it is normalised; distances are in metres).
+  // The queries of raycast::MeshRaycaster, with the same arguments and preconditions; a hit
+  // also says which instance it is on (0 = the support) and the surface stiffness there.
   std::optional<RayHit> Cast(const Eigen::Vector3d& origin_w, const Eigen::Vector3d& direction_w,
                              double max_distance_m, double min_distance_m = 0.0) const;
-
-  /// Casts one ray per direction from a common origin (a camera): hits_out[i] is what
-  /// Cast(origin_w, directions_w[i], max_distance_m, min_distance_m) returns, computed through
-  /// Embree's ray streams (about 2.5x faster than a loop of Cast for coherent rays).
   /// @pre hits_out.size() == directions_w.size()
   void CastMany(const Eigen::Vector3d& origin_w, std::span<const Eigen::Vector3d> directions_w,
                 double max_distance_m, std::span<std::optional<RayHit>> hits_out,
                 double min_distance_m = 0.0) const;
-
-  /// True when any surface crosses the ray between min_distance_m and max_distance_m (metres;
-  /// direction_w is normalised as in Cast).
   bool Occluded(const Eigen::Vector3d& origin_w, const Eigen::Vector3d& direction_w,
                 double max_distance_m, double min_distance_m = 0.0) const;
 
