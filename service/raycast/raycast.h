@@ -9,11 +9,13 @@
 
 #include <Eigen/Geometry>
 #include <array>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
 
+#include "service/core/depth.h"
 #include "service/core/status.h"
 #include "service/mesh/mesh.h"
 
@@ -79,5 +81,30 @@ class MeshRaycaster {
   explicit MeshRaycaster(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
+
+/// What the ray through one pixel centre of a pinhole camera hit.
+struct PixelHit {
+  int u = 0;                   ///< image column
+  int v = 0;                   ///< image row
+  double depth_m = 0.0;        ///< z of the hit in the camera frame (not the range along the ray)
+  double cos_incidence = 0.0;  ///< |cos| of the angle between the ray and the surface normal
+  const Hit* hit = nullptr;    ///< the hit itself (valid during the callback)
+};
+
+/// Casts one ray through every pixel centre of `camera` placed at `world_from_camera` (camera
+/// frame in OpenCV convention: x right, y down, z along the optical axis; pixel (u, v)'s ray
+/// passes through ((u - cx) / fx, (v - cy) / fy, 1), the back-projection of
+/// service/core/preprocess.cpp) and calls `on_hit` for each pixel whose ray hits, in 8 x 8 pixel
+/// tiles (coherent rays for Embree's ray streams). The simulator's renderer and the mesh grasp
+/// previews both draw through this.
+/// @throws std::invalid_argument for fx, fy <= 0, non-finite cx, cy, a non-positive size or a
+///   non-finite pose.
+void CastPixelRays(const MeshRaycaster& caster, const core::Camera& camera,
+                   const Eigen::Isometry3d& world_from_camera,
+                   const std::function<void(const PixelHit&)>& on_hit);
+
+/// The depth image (z in the camera frame, metres; NaN where nothing was hit) of CastPixelRays.
+core::DepthImage RenderDepth(const MeshRaycaster& caster, const core::Camera& camera,
+                             const Eigen::Isometry3d& world_from_camera);
 
 }  // namespace softgrasp::raycast

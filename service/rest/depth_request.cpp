@@ -69,24 +69,6 @@ core::Result<RequestFields> CollectFields(const http::Request& request) {
   return fields;
 }
 
-core::Result<double> ParseNumber(const std::string& field, const std::string& text, double min,
-                                 double max) {
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || errno != 0 || end != text.c_str() + text.size() || !std::isfinite(v)) {
-    return MakeError(ErrorCode::kInvalidArgument, field + " must be a number, got '" + text + "'",
-                     field);
-  }
-  if (v < min || v > max) {
-    return MakeError(ErrorCode::kInvalidArgument,
-                     field + " must be in [" + std::to_string(min) + ", " + std::to_string(max) +
-                         "], got " + text,
-                     field);
-  }
-  return v;
-}
-
 // Numeric options: name -> range and where the value goes.
 struct NumericOption {
   double min, max;
@@ -253,36 +235,6 @@ core::Result<DepthUpload> DecodeUpload(const RequestFields& fields,
   return out;
 }
 
-// A field with a fixed set of values; `names[i]` maps to `values[i]`.
-template <class T, std::size_t N>
-core::Result<T> ParseChoice(const RequestFields& fields, const std::string& key, T fallback,
-                            const std::array<const char*, N>& names,
-                            const std::array<T, N>& values) {
-  const auto f = fields.values.find(key);
-  if (f == fields.values.end()) return fallback;
-  std::string expected;
-  for (std::size_t i = 0; i < N; ++i) {
-    if (f->second == names[i]) return values[i];
-    expected += std::string(i == 0 ? "" : (i + 1 == N ? " or " : ", ")) + "'" + names[i] + "'";
-  }
-  return MakeError(ErrorCode::kInvalidArgument,
-                   key + " must be " + expected + ", got '" + f->second + "'", key);
-}
-
-core::Result<OutputFormat> ResolveOutput(const http::Request& request,
-                                         const RequestFields& fields) {
-  if (fields.values.count("format")) {
-    return ParseChoice<OutputFormat, 2>(fields, "format", OutputFormat::kJson, {"json", "png"},
-                                        {OutputFormat::kJson, OutputFormat::kPng});
-  }
-  const std::string accept(request.header("Accept").value_or(""));
-  if (accept.find("image/png") != std::string::npos &&
-      accept.find("application/json") == std::string::npos) {
-    return OutputFormat::kPng;
-  }
-  return OutputFormat::kJson;
-}
-
 constexpr std::array<const char*, 2> kMethodNames = {"model", "pcl"};
 constexpr std::array<std::optional<segmentation::Method>, 2> kMethods = {
     segmentation::Method::kModel, segmentation::Method::kPcl};
@@ -407,7 +359,7 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   plan.strategy = strategy.value();
   if (auto why = engine::Unserved(models, plan.strategy)) return *why;
   auto overlay = ParseChoice<OverlayBackground, 3>(
-      fields, "overlay", OverlayBackground::kDepth, {"depth", "stiffness", "deformability"},
+      fields.values, "overlay", OverlayBackground::kDepth, {"depth", "stiffness", "deformability"},
       {OverlayBackground::kDepth, OverlayBackground::kStiffness,
        OverlayBackground::kDeformability});
   if (!overlay.ok()) return overlay.error();
@@ -422,7 +374,7 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
                      "overlay 'stiffness' needs a stiffness model and none is loaded", "overlay");
   }
   auto policy = ParseChoice<core::TargetPolicy, 2>(
-      fields, "target_policy", core::TargetPolicy::kHighest, {"highest", "least_deformable"},
+      fields.values, "target_policy", core::TargetPolicy::kHighest, {"highest", "least_deformable"},
       {core::TargetPolicy::kHighest, core::TargetPolicy::kLeastDeformable});
   if (!policy.ok()) return policy.error();
   plan.deformability.policy = policy.value();
@@ -437,14 +389,14 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
                      "slice step below the contact)",
                      "slice_step_mm");
   }
-  auto output = ResolveOutput(request, fields);
+  auto output = ResolveOutput(request, fields.values);
   if (!output.ok()) return output.error();
   out.output = output.value();
-  auto draw = ParseChoice<bool, 2>(fields, "draw", true, {"grasps", "none"}, {true, false});
+  auto draw = ParseChoice<bool, 2>(fields.values, "draw", true, {"grasps", "none"}, {true, false});
   if (!draw.ok()) return draw.error();
   out.draw_grasps = draw.value();
-  auto report =
-      ParseChoice<bool, 2>(fields, "mean_stiffness", false, {"true", "false"}, {true, false});
+  auto report = ParseChoice<bool, 2>(fields.values, "mean_stiffness", false, {"true", "false"},
+                                     {true, false});
   if (!report.ok()) return report.error();
   plan.mean_stiffness = report.value();
   if (plan.mean_stiffness && !models.stiffness) {
@@ -470,11 +422,11 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   }
 
   auto instances =
-      ParseChoice<bool, 2>(fields, "instances", false, {"true", "false"}, {true, false});
+      ParseChoice<bool, 2>(fields.values, "instances", false, {"true", "false"}, {true, false});
   if (!instances.ok()) return instances.error();
   plan.report_instances = instances.value();
   auto method = ParseChoice<std::optional<segmentation::Method>, 2>(
-      fields, "segmentation", std::nullopt, kMethodNames, kMethods);
+      fields.values, "segmentation", std::nullopt, kMethodNames, kMethods);
   if (!method.ok()) return method.error();
   plan.instances.method = method.value();
   if (const auto target = fields.values.find("target"); target != fields.values.end()) {
@@ -519,7 +471,7 @@ core::Result<StiffnessRequest> ParseStiffnessRequest(const http::Request& reques
                      std::string("unknown field '") + part + "' (it applies to /v1/grasps)", part);
   }
   StiffnessRequest out;
-  auto format = ParseChoice<StiffnessFormat, 4>(fields, "format", StiffnessFormat::kPng8,
+  auto format = ParseChoice<StiffnessFormat, 4>(fields.values, "format", StiffnessFormat::kPng8,
                                                 {"png8", "png16", "npy", "color"},
                                                 {StiffnessFormat::kPng8, StiffnessFormat::kPng16,
                                                  StiffnessFormat::kNpy, StiffnessFormat::kColor});
@@ -547,17 +499,18 @@ core::Result<SegmentationRequest> ParseSegmentationRequest(const http::Request& 
                      std::string("unknown field '") + part + "' (it applies to /v1/grasps)", part);
   }
   SegmentationRequest out;
-  auto method = ParseChoice<std::optional<segmentation::Method>, 2>(fields, "method", std::nullopt,
-                                                                    kMethodNames, kMethods);
+  auto method = ParseChoice<std::optional<segmentation::Method>, 2>(
+      fields.values, "method", std::nullopt, kMethodNames, kMethods);
   if (!method.ok()) return method.error();
   out.method = method.value();
   auto format = ParseChoice<SegmentationFormat, 4>(
-      fields, "format", SegmentationFormat::kJson, {"json", "labels", "overlay", "deformability"},
+      fields.values, "format", SegmentationFormat::kJson,
+      {"json", "labels", "overlay", "deformability"},
       {SegmentationFormat::kJson, SegmentationFormat::kLabels, SegmentationFormat::kOverlay,
        SegmentationFormat::kDeformability});
   if (!format.ok()) return format.error();
   out.format = format.value();
-  auto encoding = ParseChoice<StiffnessFormat, 4>(fields, "encoding", StiffnessFormat::kPng8,
+  auto encoding = ParseChoice<StiffnessFormat, 4>(fields.values, "encoding", StiffnessFormat::kPng8,
                                                   {"png8", "png16", "npy", "color"},
                                                   {StiffnessFormat::kPng8, StiffnessFormat::kPng16,
                                                    StiffnessFormat::kNpy, StiffnessFormat::kColor});

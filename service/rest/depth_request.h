@@ -12,6 +12,7 @@
 #include "service/engine/engine.h"
 #include "service/http/message.h"
 #include "service/io/depth_codec.h"
+#include "service/rest/form_fields.h"
 #include "service/segmentation/instances.h"
 
 namespace softgrasp::rest {
@@ -24,7 +25,6 @@ struct DepthUpload {
   std::string camera_source;  ///< "request" or "default"
 };
 
-enum class OutputFormat { kJson, kPng };
 /// What the PNG answer of /v1/grasps shows under the grasps.
 enum class OverlayBackground { kDepth, kStiffness, kDeformability };
 

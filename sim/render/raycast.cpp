@@ -146,4 +146,14 @@ bool SceneRaycaster::Occluded(const Eigen::Vector3d& origin_w, const Eigen::Vect
   return impl_->caster.Occluded(origin_w, direction_w, max_distance_m, min_distance_m);
 }
 
+void SceneRaycaster::CastPixelRays(const core::Camera& camera,
+                                   const Eigen::Isometry3d& world_from_camera,
+                                   const PixelCallback& on_hit) const {
+  if (!impl_) throw std::logic_error("SceneRaycaster::CastPixelRays on a moved-from raycaster");
+  raycast::CastPixelRays(
+      impl_->caster, camera, world_from_camera, [&](const raycast::PixelHit& pixel) {
+        on_hit(pixel.u, pixel.v, pixel.depth_m, pixel.cos_incidence, impl_->ToRayHit(*pixel.hit));
+      });
+}
+
 }  // namespace softgrasp::sim

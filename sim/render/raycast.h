@@ -4,10 +4,12 @@
 /// Rendering (render.h) and grasp execution (sim/grasp) both ask their questions through this.
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
 
+#include "service/core/depth.h"
 #include "service/core/status.h"
 #include "sim/scene/scene.h"
 
@@ -44,6 +46,13 @@ class SceneRaycaster {
                 double min_distance_m = 0.0) const;
   bool Occluded(const Eigen::Vector3d& origin_w, const Eigen::Vector3d& direction_w,
                 double max_distance_m, double min_distance_m = 0.0) const;
+
+  /// One ray per pixel centre of a camera (raycast::CastPixelRays): on_hit(u, v, depth_m,
+  /// cos_incidence, hit) for each pixel whose ray hits, depth_m being z in the camera frame.
+  using PixelCallback =
+      std::function<void(int u, int v, double depth_m, double cos_incidence, const RayHit& hit)>;
+  void CastPixelRays(const core::Camera& camera, const Eigen::Isometry3d& world_from_camera,
+                     const PixelCallback& on_hit) const;
 
  private:
   struct Impl;

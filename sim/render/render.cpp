@@ -135,55 +135,21 @@ Eigen::Isometry3d OverheadCameraPose(double height_m) {
 RenderedViews Render(const SceneRaycaster& raycaster, const RenderOptions& options) {
   CheckOptions(options);
   const core::Camera& camera = options.camera;
-  const Eigen::Matrix3d world_from_camera_rotation = options.world_from_camera.linear();
-  const Eigen::Vector3d origin_w = options.world_from_camera.translation();
-
   RenderedViews views;
   views.depth.depth_m = cv::Mat1f(camera.height, camera.width, kNaN);
   views.labels = cv::Mat1w(camera.height, camera.width, std::uint16_t{0});
   views.stiffness = cv::Mat1f(camera.height, camera.width, 0.0f);
   views.deformability = cv::Mat1f(camera.height, camera.width, 0.0f);
   cv::Mat1f cos_incidence(camera.height, camera.width, 0.0f);
-
-  // 8 x 8 pixel tiles: neighbouring rays traverse the same BVH nodes, which Embree's ray
-  // streams exploit.
-  constexpr int kTile = 8;
-  constexpr double kUnbounded = std::numeric_limits<double>::infinity();
-  std::array<Eigen::Vector3d, kTile * kTile> rays_w;
-  std::array<double, kTile * kTile> ray_c_norms;
-  std::array<std::optional<RayHit>, kTile * kTile> hits;
-  for (int tile_v = 0; tile_v < camera.height; tile_v += kTile) {
-    for (int tile_u = 0; tile_u < camera.width; tile_u += kTile) {
-      const int rows = std::min(kTile, camera.height - tile_v);
-      const int cols = std::min(kTile, camera.width - tile_u);
-      for (int i = 0; i < rows * cols; ++i) {
-        const int u = tile_u + i % cols;
-        const int v = tile_v + i / cols;
-        // Same back-projection as service/core/preprocess.cpp: pixel (u, v)'s centre is at
-        // x = (u - cx) / fx, y = (v - cy) / fy on the z = 1 plane.
-        const Eigen::Vector3d ray_c((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
-        rays_w[i] = world_from_camera_rotation * ray_c;
-        ray_c_norms[i] = ray_c.norm();
-      }
-      const auto count = static_cast<std::size_t>(rows * cols);
-      raycaster.CastMany(origin_w, std::span(rays_w.data(), count), kUnbounded,
-                         std::span(hits.data(), count));
-      for (int i = 0; i < rows * cols; ++i) {
-        if (!hits[i]) continue;
-        const int u = tile_u + i % cols;
-        const int v = tile_v + i / cols;
-        const RayHit& hit = *hits[i];
-        // The unit ray's component along the optical axis is 1 / |ray_c|: depth is z, not range.
-        views.depth.depth_m(v, u) = static_cast<float>(hit.distance_m / ray_c_norms[i]);
-        cos_incidence(v, u) =
-            static_cast<float>(std::abs(hit.normal_w.dot(rays_w[i])) / ray_c_norms[i]);
-        if (hit.instance_id == 0) continue;
-        views.labels(v, u) = static_cast<std::uint16_t>(hit.instance_id);
-        views.stiffness(v, u) = hit.stiffness;
-        views.deformability(v, u) = 1.0f - hit.stiffness;
-      }
-    }
-  }
+  raycaster.CastPixelRays(camera, options.world_from_camera,
+                          [&](int u, int v, double depth_m, double cos, const RayHit& hit) {
+                            views.depth.depth_m(v, u) = static_cast<float>(depth_m);
+                            cos_incidence(v, u) = static_cast<float>(cos);
+                            if (hit.instance_id == 0) return;
+                            views.labels(v, u) = static_cast<std::uint16_t>(hit.instance_id);
+                            views.stiffness(v, u) = hit.stiffness;
+                            views.deformability(v, u) = 1.0f - hit.stiffness;
+                          });
   if (options.noise.enabled) {
     views.depth.depth_m = NoisyDepth(views.depth.depth_m, cos_incidence, options.noise);
   }

@@ -129,5 +129,64 @@ TEST(MeshRaycaster, RefusesMeshesItCannotCastAgainst) {
                std::invalid_argument);
 }
 
+// A camera 0.5 m above a 40 x 60 x 20 mm box (top at z = 0.02 m) looking straight down sees
+// the top at depth 0.48 m exactly, over the pixels whose centres project inside the top face;
+// just outside it a ray may still meet a side wall, lower down, and beyond that nothing.
+// CastPixelRays reports the same pixels; on the top face the cosine of the ray with the face's
+// normal (the optical axis) is 1 / |ray|.
+TEST(CameraRays, RenderDepthSeesTheBoxTopAtItsExactDepthAndFootprint) {
+  const mesh::TriangleMesh box = testing::BoxMesh({-0.02, -0.03, 0.0}, {0.02, 0.03, 0.02});
+  const std::vector<Surface> surfaces{{1, &box, Eigen::Isometry3d::Identity()}};
+  auto caster = MeshRaycaster::Build(surfaces);
+  ASSERT_TRUE(caster.ok());
+  core::Camera camera;
+  camera.width = 64;
+  camera.height = 48;
+  camera.fx = camera.fy = 300.0;
+  camera.cx = 31.5;
+  camera.cy = 23.5;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  world_from_camera.linear() << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // optical axis -z, image y = -y
+  world_from_camera.translation() = Eigen::Vector3d(0, 0, 0.5);
+  const core::DepthImage depth = RenderDepth(caster.value(), camera, world_from_camera);
+  ASSERT_EQ(depth.width(), 64);
+  ASSERT_EQ(depth.height(), 48);
+  int expected_hits = 0;
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      // The pixel centre's ray meets z = 0.02 (0.48 m from the camera) at this point of W.
+      const double x = (u - camera.cx) / camera.fx * 0.48;
+      const double y = -(v - camera.cy) / camera.fy * 0.48;
+      const bool inside = std::abs(x) < 0.02 && std::abs(y) < 0.03;
+      const bool clear = std::abs(std::abs(x) - 0.02) > 1e-9 && std::abs(std::abs(y) - 0.03) > 1e-9;
+      if (!clear) continue;  // a ray grazing an edge: either answer is right
+      if (inside) {
+        ++expected_hits;
+        EXPECT_NEAR(depth.depth_m(v, u), 0.48f, 1e-6) << u << "," << v;
+      } else if (std::abs(x) > 0.021 * 0.5 / 0.48 || std::abs(y) > 0.031 * 0.5 / 0.48) {
+        EXPECT_TRUE(std::isnan(depth.depth_m(v, u))) << u << "," << v;  // past the base too
+      } else if (!std::isnan(depth.depth_m(v, u))) {
+        EXPECT_GT(depth.depth_m(v, u), 0.48f) << u << "," << v;  // a side wall
+      }
+    }
+  }
+  EXPECT_GT(expected_hits, 800);  // about 25 x 37.5 px
+  int reported = 0;
+  CastPixelRays(caster.value(), camera, world_from_camera, [&](const PixelHit& pixel) {
+    ++reported;
+    if (pixel.hit->normal_w.z() < 0.5) return;  // a side wall
+    const double ray_norm =
+        Eigen::Vector3d((pixel.u - camera.cx) / camera.fx, (pixel.v - camera.cy) / camera.fy, 1.0)
+            .norm();
+    EXPECT_NEAR(pixel.cos_incidence, 1.0 / ray_norm, 1e-12);
+    EXPECT_NEAR(pixel.depth_m, 0.48, 1e-12);
+    EXPECT_NEAR(pixel.hit->distance_m, 0.48 * ray_norm, 1e-12);
+  });
+  EXPECT_EQ(reported, cv::countNonZero(depth.depth_m == depth.depth_m));
+  core::Camera broken = camera;
+  broken.fx = 0.0;
+  EXPECT_THROW(RenderDepth(caster.value(), broken, world_from_camera), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace softgrasp::raycast

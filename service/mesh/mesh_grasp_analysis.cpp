@@ -1,0 +1,233 @@
+#include "service/mesh/mesh_grasp_analysis.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <utility>
+
+#include "service/raycast/raycast.h"
+
+namespace softgrasp::mesh {
+namespace {
+
+using core::ErrorCode;
+using core::MakeError;
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::optional<core::Error> CheckOptions(const MeshGraspOptions& o) {
+  const auto bad = [](const char* field, const std::string& what) {
+    return MakeError(ErrorCode::kInvalidArgument, std::string(field) + " " + what, field);
+  };
+  if (!std::isfinite(o.friction_coefficient) || o.friction_coefficient < 0.0) {
+    return bad("friction_coefficient", "must be finite and >= 0");
+  }
+  if (o.num_grasps < 1) return bad("num_grasps", "must be >= 1");
+  if (o.robust_samples < 0) return bad("robust_samples", "must be >= 0");
+  if (!std::isfinite(o.min_pose_probability) || o.min_pose_probability < 0.0 ||
+      o.min_pose_probability >= 1.0) {
+    return bad("min_pose_probability", "must be in [0, 1)");
+  }
+  if (!std::isfinite(o.approach_distance_m) || o.approach_distance_m < 0.0) {
+    return bad("approach_distance_m", "must be finite and >= 0");
+  }
+  if (!std::isfinite(o.table_clearance_m) || o.table_clearance_m < 0.0) {
+    return bad("table_clearance_m", "must be finite and >= 0");
+  }
+  if (!std::isfinite(o.max_approach_table_angle_rad) || o.max_approach_table_angle_rad < 0.0) {
+    return bad("max_approach_table_angle_rad", "must be finite and >= 0");
+  }
+  if (o.approach_offsets_rad.empty()) return bad("approach_offsets_rad", "must not be empty");
+  for (const double a : o.approach_offsets_rad) {
+    if (!std::isfinite(a)) return bad("approach_offsets_rad", "must be finite");
+  }
+  return std::nullopt;
+}
+
+GraspInPose CheckInPose(const GripperCollisionChecker& checker, const JawGrasp& grasp,
+                        const StablePose& pose, const MeshGraspOptions& options) {
+  const TopDownApproach nominal = ApproachFromAbove(grasp, pose);
+  const TableInObject table = TableInObject::Under(pose, options.table_clearance_m);
+  GraspInPose out;
+  out.approach_table_angle_rad = nominal.table_angle_rad;
+  out.aligned = nominal.table_angle_rad <= options.max_approach_table_angle_rad;
+  out.approach_o = nominal.approach_o;
+  for (const double offset : options.approach_offsets_rad) {
+    const Eigen::Vector3d approach = RotateApproach(grasp, nominal.approach_o, offset);
+    if (!checker.Collides(GripperPose(grasp, approach), &table)) {
+      out.collision_free = true;
+      out.approach_offset_rad = offset;
+      out.approach_o = approach;
+      break;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+core::Result<MeshGraspAnalysis> AnalyseMeshGrasps(const TriangleMesh& mesh_o,
+                                                  const MeshGraspOptions& options) {
+  if (auto error = CheckOptions(options)) return *error;
+  const Clock::time_point start = Clock::now();
+  MeshGraspAnalysis analysis;
+
+  analysis.center_of_mass_m = VolumeCentroid(mesh_o);
+  if (!analysis.center_of_mass_m.allFinite()) {
+    return MakeError(ErrorCode::kUnprocessable,
+                     "the mesh encloses no positive volume (open, inside out or flat)", "mesh");
+  }
+  StablePoseOptions pose_options;
+  pose_options.min_probability = options.min_pose_probability;
+  pose_options.center_of_mass = analysis.center_of_mass_m;
+  auto poses = ComputeStablePoses(mesh_o, pose_options);
+  if (!poses.ok()) return poses.error();
+  analysis.poses = std::move(poses).value();
+  if (analysis.poses.empty()) {
+    return MakeError(ErrorCode::kUnprocessable,
+                     "no stable pose has a probability above min_pose_probability",
+                     "min_pose_probability");
+  }
+  analysis.timing.stable_poses_ms = MsSince(start);
+
+  Clock::time_point phase = Clock::now();
+  const std::vector<raycast::Surface> surfaces{{0, &mesh_o, Eigen::Isometry3d::Identity()}};
+  auto caster = raycast::MeshRaycaster::Build(surfaces);
+  if (!caster.ok()) return caster.error();
+  AntipodalParams sampling;
+  sampling.friction_coefficient = options.friction_coefficient;
+  sampling.max_width_m = options.gripper.opening_m;
+  sampling.target_num_grasps = options.num_grasps;
+  sampling.max_surface_points = std::max(4000, 40 * options.num_grasps);
+  sampling.seed = options.seed;
+  auto grasps = SampleAntipodalGrasps(mesh_o, caster.value(), sampling);
+  if (!grasps.ok()) return grasps.error();
+  analysis.timing.sampling_ms = MsSince(phase);
+
+  phase = Clock::now();
+  QualityParams quality = options.quality;
+  quality.friction_coefficient = options.friction_coefficient;
+  RobustParams robust = options.robust;
+  robust.num_samples = options.robust_samples;
+  const raycast::MeshRaycaster& surface = caster.value();
+  const ContactQuery query = [&surface](const Eigen::Vector3d& center, const Eigen::Vector3d& axis,
+                                        double max_width) {
+    return CloseJaws(surface, center, axis, max_width);
+  };
+  for (std::size_t i = 0; i < grasps.value().size(); ++i) {
+    AnalysedGrasp analysed;
+    analysed.grasp = grasps.value()[i];
+    analysed.sample_index = static_cast<int>(i);
+    analysed.ferrari_canny =
+        FerrariCannyL1(analysed.grasp.a, analysed.grasp.b, analysis.center_of_mass_m, quality);
+    if (options.robust_samples > 0) {
+      // Each grasp draws its own noise stream, so a grasp's value does not depend on how many
+      // grasps came before it.
+      robust.seed = options.seed ^ (0x9E3779B97F4A7C15ull * (i + 1));
+      analysed.robust_ferrari_canny =
+          RobustFerrariCannyL1(analysed.grasp.center_m, analysed.grasp.axis,
+                               options.gripper.opening_m, query, analysis.center_of_mass_m, quality,
+                               robust)
+              .mean;
+    }
+    analysis.grasps.push_back(std::move(analysed));
+  }
+  analysis.timing.quality_ms = MsSince(phase);
+
+  phase = Clock::now();
+  auto checker =
+      GripperCollisionChecker::Build(mesh_o, options.gripper, options.approach_distance_m);
+  if (!checker.ok()) return checker.error();
+  for (AnalysedGrasp& analysed : analysis.grasps) {
+    for (const StablePose& pose : analysis.poses) {
+      analysed.poses.push_back(CheckInPose(checker.value(), analysed.grasp, pose, options));
+    }
+  }
+  analysis.timing.collisions_ms = MsSince(phase);
+
+  std::stable_sort(analysis.grasps.begin(), analysis.grasps.end(),
+                   [](const AnalysedGrasp& a, const AnalysedGrasp& b) {
+                     return a.robust_ferrari_canny.value_or(a.ferrari_canny) >
+                            b.robust_ferrari_canny.value_or(b.ferrari_canny);
+                   });
+  analysis.timing.total_ms = MsSince(start);
+  return analysis;
+}
+
+core::Result<PoseView> RenderPoseView(const TriangleMesh& mesh_o, const MeshGraspAnalysis& analysis,
+                                      int pose_index, const GripperBoxes& gripper, int size_px,
+                                      int max_grasps) {
+  if (pose_index < 0 || pose_index >= static_cast<int>(analysis.poses.size())) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "pose " + std::to_string(pose_index) + " is out of range (the mesh has " +
+                         std::to_string(analysis.poses.size()) + " stable poses)",
+                     "pose");
+  }
+  if (size_px < 16 || size_px > 4096) {
+    return MakeError(ErrorCode::kInvalidArgument, "the image size must be in [16, 4096] px",
+                     "size_px");
+  }
+  const StablePose& pose = analysis.poses[static_cast<std::size_t>(pose_index)];
+  Eigen::Isometry3d table_from_object = Eigen::Isometry3d::Identity();
+  table_from_object.linear() = pose.table_from_object_rotation;
+  table_from_object.translation() = pose.table_from_object_translation;
+
+  // Frame the bounding sphere about the centre of mass.
+  const Eigen::Vector3d com_t = table_from_object * analysis.center_of_mass_m;
+  double radius_m = 0.0;
+  double top_m = 0.0;
+  for (const auto& v : mesh_o.vertices) {
+    const Eigen::Vector3d p_t = table_from_object * Eigen::Vector3d(v[0], v[1], v[2]);
+    radius_m = std::max(radius_m, (p_t - com_t).norm());
+    top_m = std::max(top_m, p_t.z());
+  }
+  PoseView view;
+  view.camera.width = size_px;
+  view.camera.height = size_px;
+  view.camera.fx = view.camera.fy = 1.1 * size_px;  // about 49 degrees field of view
+  view.camera.cx = view.camera.cy = 0.5 * size_px - 0.5;
+  const double fill = 0.8;
+  const double distance_m = view.camera.fx * radius_m / (fill * 0.5 * size_px);
+  // Camera axes in the table frame: x -> +x, y (image down) -> -y, optical axis -> -z.
+  view.table_from_camera.linear() << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+  view.table_from_camera.translation() =
+      Eigen::Vector3d(com_t.x(), com_t.y(), std::max(com_t.z() + distance_m, top_m + 0.01));
+
+  const std::vector<raycast::Surface> surfaces{{0, &mesh_o, table_from_object}};
+  auto caster = raycast::MeshRaycaster::Build(surfaces);
+  if (!caster.ok()) return caster.error();
+  view.depth = raycast::RenderDepth(caster.value(), view.camera, view.table_from_camera);
+
+  const Eigen::Isometry3d camera_from_object = view.table_from_camera.inverse() * table_from_object;
+  for (const AnalysedGrasp& analysed : analysis.grasps) {
+    if (static_cast<int>(view.grasps.size()) >= max_grasps) break;
+    const GraspInPose& in_pose = analysed.poses[static_cast<std::size_t>(pose_index)];
+    if (!in_pose.aligned || !in_pose.collision_free) continue;
+    const Eigen::Vector3d center_c = camera_from_object * analysed.grasp.center_m;
+    const Eigen::Vector3d axis_c = camera_from_object.linear() * analysed.grasp.axis;
+    if (!(center_c.z() > 0.0)) continue;
+    const double px_per_m = view.camera.fx / center_c.z();
+    core::Grasp g;
+    g.center_u_px = view.camera.cx + view.camera.fx * center_c.x() / center_c.z();
+    g.center_v_px = view.camera.cy + view.camera.fy * center_c.y() / center_c.z();
+    double angle = std::atan2(axis_c.y(), axis_c.x());
+    if (angle < 0.0) angle += std::numbers::pi;
+    if (angle >= std::numbers::pi) angle -= std::numbers::pi;
+    g.angle_rad = angle;
+    g.opening_m = gripper.opening_m;
+    g.opening_px = gripper.opening_m * px_per_m;
+    g.finger_width_px = gripper.finger_width_m * px_per_m;
+    g.finger_thickness_px = gripper.finger_thickness_m * px_per_m;
+    g.score = analysed.robust_ferrari_canny.value_or(analysed.ferrari_canny);
+    g.p_CG_m = {center_c.x(), center_c.y(), center_c.z()};
+    view.grasps.push_back(g);
+  }
+  return view;
+}
+
+}  // namespace softgrasp::mesh

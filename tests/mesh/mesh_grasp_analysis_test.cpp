@@ -1,0 +1,141 @@
+// The whole mesh analysis on analytic and real meshes: a 4 cm cube (six poses of 1/6, every
+// grasp in force closure, top-down grasps free exactly where the gripper's geometry says, a
+// preview that sees the top face at its depth), determinism per seed, refusals; and the Dex-Net
+// bar clamp, whose grasps across the bar and the handle rank above grasps on the jaw tips.
+#include "service/mesh/mesh_grasp_analysis.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "service/codec/mesh_grasps_json.h"
+#include "service/mesh/mesh_io.h"
+#include "tests/support/box_mesh.h"
+#include "tests/support/test_data.h"
+
+namespace softgrasp::mesh {
+namespace {
+
+MeshGraspAnalysis Analyse(const TriangleMesh& mesh, const MeshGraspOptions& options) {
+  auto analysis = AnalyseMeshGrasps(mesh, options);
+  EXPECT_TRUE(analysis.ok()) << analysis.error().message;
+  return analysis.ok() ? std::move(analysis).value() : MeshGraspAnalysis{};
+}
+
+MeshGraspOptions SmallRun() {
+  MeshGraspOptions options;
+  options.num_grasps = 40;
+  options.robust_samples = 5;
+  options.seed = 3;
+  return options;
+}
+
+double Quality(const AnalysedGrasp& g) { return g.robust_ferrari_canny.value_or(g.ferrari_canny); }
+
+TEST(MeshGraspAnalysisTest, CubeRestsOnSixFacesAndItsTopDownGraspsClearWhereTheGeometrySays) {
+  const TriangleMesh cube = testing::CentredBoxMesh(Eigen::Vector3d::Constant(0.02));
+  MeshGraspOptions options = SmallRun();
+  options.num_grasps = 200;
+  options.robust_samples = 0;
+  const MeshGraspAnalysis analysis = Analyse(cube, options);
+  ASSERT_EQ(analysis.poses.size(), 6u);
+  for (const StablePose& pose : analysis.poses) EXPECT_NEAR(pose.probability, 1.0 / 6, 1e-9);
+  EXPECT_NEAR(analysis.center_of_mass_m.norm(), 0.0, 1e-12);
+  ASSERT_GE(analysis.grasps.size(), 20u);
+  int checked_free = 0;
+  int checked_palm_hits = 0;
+  for (std::size_t i = 0; i < analysis.grasps.size(); ++i) {
+    const AnalysedGrasp& g = analysis.grasps[i];
+    if (i > 0) {
+      EXPECT_GE(Quality(analysis.grasps[i - 1]), Quality(g));
+    }
+    EXPECT_GT(g.ferrari_canny, 0.0);
+    ASSERT_EQ(g.poses.size(), 6u);
+    for (std::size_t p = 0; p < 6; ++p) {
+      const StablePose& pose = analysis.poses[p];
+      const Eigen::Vector3d down_o = -pose.table_from_object_rotation.row(2).transpose();
+      // Aligned exactly when the axis is within 5 degrees of the table plane.
+      const double tilt = std::asin(std::min(1.0, std::abs(g.grasp.axis.dot(down_o))));
+      EXPECT_EQ(g.poses[p].aligned, tilt <= 5.0 * std::numbers::pi / 180.0 + 1e-12);
+      // An axis within 8 degrees of a side normal and 2 of level: the open jaws (inner faces
+      // 25 mm from the centre, 15 mm wide) clear the 40 mm cube. Fingertips reach 5 mm below
+      // the centre and may sink 5 mm into the table; the palm starts 35 mm above the centre. So
+      // centres 10-40 mm above the table are free (with 1.5 mm to spare for the tilts); centres
+      // below 3 mm put the palm into the top at every approach offset (at most 10 degrees).
+      const double height =
+          (pose.table_from_object_rotation * g.grasp.center_m + pose.table_from_object_translation)
+              .z();
+      const double off_normal = std::acos(std::min(1.0, g.grasp.axis.cwiseAbs().maxCoeff()));
+      if (tilt > 2.0 * std::numbers::pi / 180.0 || off_normal > 8.0 * std::numbers::pi / 180.0) {
+        continue;
+      }
+      if (height >= 0.010 && height <= 0.040) {
+        EXPECT_TRUE(g.poses[p].collision_free) << "grasp " << i << " pose " << p;
+        EXPECT_TRUE(g.poses[p].approach_offset_rad.has_value());
+        ++checked_free;
+      } else if (height < 0.003) {
+        EXPECT_FALSE(g.poses[p].collision_free) << "grasp " << i << " pose " << p;
+        ++checked_palm_hits;
+      }
+    }
+  }
+  EXPECT_GT(checked_free, 10);
+  EXPECT_GT(checked_palm_hits, 0);
+}
+
+TEST(MeshGraspAnalysisTest, SameSeedSameAnswerOtherSeedOtherGrasps) {
+  const TriangleMesh cube = testing::CentredBoxMesh(Eigen::Vector3d(0.02, 0.015, 0.01));
+  MeshGraspOptions options = SmallRun();
+  const auto a = codec::ToJsonWithoutTiming(Analyse(cube, options));
+  const auto b = codec::ToJsonWithoutTiming(Analyse(cube, options));
+  EXPECT_EQ(a.dump(), b.dump());
+  options.seed = 4;
+  EXPECT_NE(a.dump(), codec::ToJsonWithoutTiming(Analyse(cube, options)).dump());
+}
+
+TEST(MeshGraspAnalysisTest, PreviewSeesTheTopFaceAtItsDepthAndDrawsGraspsOnTheCube) {
+  const TriangleMesh cube = testing::CentredBoxMesh(Eigen::Vector3d::Constant(0.02));
+  const MeshGraspAnalysis analysis = Analyse(cube, SmallRun());
+  const GripperBoxes gripper;
+  auto view = RenderPoseView(cube, analysis, 0, gripper, 200, 5);
+  ASSERT_TRUE(view.ok()) << view.error().message;
+  const PoseView& v = view.value();
+  ASSERT_EQ(v.depth.width(), 200);
+  // The top face is 40 mm above the table, the camera looks straight down.
+  const double top_depth = v.table_from_camera.translation().z() - 0.04;
+  EXPECT_NEAR(v.depth.depth_m(100, 100), top_depth, 1e-6);
+  EXPECT_TRUE(std::isnan(v.depth.depth_m(0, 0)));
+  ASSERT_FALSE(v.grasps.empty());
+  EXPECT_LE(v.grasps.size(), 5u);
+  for (const core::Grasp& g : v.grasps) {
+    const int u = static_cast<int>(std::lround(g.center_u_px));
+    const int row = static_cast<int>(std::lround(g.center_v_px));
+    ASSERT_TRUE(u >= 0 && u < 200 && row >= 0 && row < 200);
+    EXPECT_FALSE(std::isnan(v.depth.depth_m(row, u))) << "a grasp centre off the cube";
+    // The drawn opening is the stroke at the grasp's depth.
+    EXPECT_NEAR(g.opening_px, 0.05 * v.camera.fx / g.p_CG_m[2], 1e-9);
+  }
+  EXPECT_EQ(RenderPoseView(cube, analysis, 6, gripper).error().field, "pose");
+  EXPECT_EQ(RenderPoseView(cube, analysis, 0, gripper, 8).error().field, "size_px");
+}
+
+TEST(MeshGraspAnalysisTest, RefusesBadOptionsAndMeshesWithoutVolume) {
+  const TriangleMesh cube = testing::CentredBoxMesh(Eigen::Vector3d::Constant(0.02));
+  MeshGraspOptions options;
+  options.num_grasps = 0;
+  EXPECT_EQ(AnalyseMeshGrasps(cube, options).error().field, "num_grasps");
+  options = {};
+  options.min_pose_probability = 1.0;
+  EXPECT_EQ(AnalyseMeshGrasps(cube, options).error().field, "min_pose_probability");
+  options = {};
+  options.friction_coefficient = -0.1;
+  EXPECT_EQ(AnalyseMeshGrasps(cube, options).error().field, "friction_coefficient");
+  TriangleMesh inside_out = cube;
+  for (auto& f : inside_out.faces) std::swap(f[1], f[2]);
+  EXPECT_EQ(AnalyseMeshGrasps(inside_out, {}).error().code, core::ErrorCode::kUnprocessable);
+}
+
+}  // namespace
+}  // namespace softgrasp::mesh
