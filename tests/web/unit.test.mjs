@@ -1,7 +1,8 @@
 // The page's pure modules under node: error messages from API bodies, file names from
 // Content-Disposition, the grasp geometry the canvas draws, the fractal request body, the
-// stiffness view's choices from /v1/info, the objects panel's choices and label decoding, and the
-// robot panel's command body, states, result numbers and error messages.
+// stiffness view's choices from /v1/info, the objects panel's choices and label decoding, the mesh
+// panel's query, scale and table rows, and the robot panel's command body, states, result numbers
+// and error messages.
 import assert from 'node:assert/strict';
 import { describe, it } from 'node:test';
 import { deflateSync } from 'node:zlib';
@@ -9,6 +10,10 @@ import { deflateSync } from 'node:zlib';
 import { ApiError, describeError, fileNameFromDisposition, parseErrorBody } from '../../web/src/api.js';
 import { fractalBody } from '../../web/src/fractals.js';
 import { angleDegrees, graspShape, isDrawable } from '../../web/src/grasp_geometry.js';
+import {
+  graspInPose, graspQuality, graspRows, lengthText, meshFileFormat, meshQuery, meshScale,
+  meshSummary, poseRows, qualityScale, usableCounts,
+} from '../../web/src/mesh_grasps_model.js';
 import {
   commandUrl, describeRobotError, isFinalState, isValidCommandId, newCommandId, resultSummary,
   robotCommandBody, stateSteps,
@@ -329,5 +334,87 @@ describe('objects panel', () => {
     png[24] = 8; // bit depth in IHDR
     await assert.rejects(decodeLabelsPng(png), /16-bit grey/);
     await assert.rejects(decodeLabelsPng(Buffer.from('not a png')), /not a PNG/);
+  });
+});
+
+describe('mesh panel model', () => {
+  const pose = (index, extra = {}) => ({ pose: index, aligned: true, collision_free: true,
+    approach_table_angle_deg: 0, approach_offset_deg: 0, approach_o: [0, 0, -1], ...extra });
+  const result = {
+    center_of_mass_m: [0, 0, 0],
+    stable_poses: [
+      { index: 0, probability: 0.5, com_height_m: 0.01, table_from_object: {} },
+      { index: 1, probability: 0.25, com_height_m: 0.0205, table_from_object: {} },
+    ],
+    grasps: [
+      { rank: 0, width_m: 0.02, ferrari_canny: 0.004, robust_ferrari_canny: 0.003,
+        poses: [pose(0), pose(1, { aligned: false, approach_table_angle_deg: 33.34 })] },
+      { rank: 1, width_m: 0.0315, ferrari_canny: 0.002, robust_ferrari_canny: null,
+        poses: [pose(0, { collision_free: false, approach_offset_deg: null }), pose(1)] },
+      { rank: 2, width_m: 0.01, ferrari_canny: 0.001, robust_ferrari_canny: 0.001, poses: [] },
+    ],
+    timing_ms: { total: 12.4 },
+    mesh: { format: 'obj', vertices: 8, triangles: 12, unit: 'mm', scale_applied: 0.002,
+      repairs: ['welded 28 duplicate vertices (equal coordinates)'], future_field: 1 },
+  };
+
+  it('sends format=json, the unit and only the filled-in options', () => {
+    assert.equal(meshQuery({ unit: 'm' }), 'format=json&unit=m');
+    assert.equal(meshQuery({ unit: 'mm', num_grasps: 50, robust_samples: 0, seed: 7,
+      friction_coefficient: 0.4, rescale: true }),
+    'format=json&unit=mm&num_grasps=50&robust_samples=0&seed=7&friction_coefficient=0.4'
+      + '&rescale_min_extent_mm=40');
+  });
+
+  it('reads the file with the service\'s format name, else by its extension', () => {
+    assert.equal(meshFileFormat('part.bin', 'ply_binary'), 'ply');
+    assert.equal(meshFileFormat('part.STL', undefined), 'stl');
+    assert.equal(meshFileFormat('cube.obj', null), 'obj');
+    assert.equal(meshFileFormat('notes.txt', 'unknown'), null);
+  });
+
+  it('scales the file by scale_applied, else by its unit', () => {
+    assert.equal(meshScale(result.mesh, 'mm'), 0.002);
+    assert.equal(meshScale({ scale: 0.5 }, 'm'), 0.5);
+    assert.equal(meshScale({}, 'mm'), 0.001);
+    assert.equal(meshScale(undefined, 'm'), 1);
+    assert.equal(meshScale({ scale_applied: 0 }, 'm'), 1);
+  });
+
+  it('finds a grasp in a pose and its quality (robust, else nominal)', () => {
+    assert.equal(graspInPose(result.grasps[0], 1).approach_table_angle_deg, 33.34);
+    assert.equal(graspInPose(result.grasps[2], 0), null);
+    assert.equal(graspQuality(result.grasps[0]), 0.003);
+    assert.equal(graspQuality(result.grasps[1]), 0.002);
+    const scale = qualityScale(result.grasps);
+    assert.deepEqual(result.grasps.map(scale), [1, 0.5, 0]);
+    assert.equal(qualityScale([result.grasps[0]])(result.grasps[0]), 1);
+  });
+
+  it('writes the pose and grasp table rows from the answer', () => {
+    assert.deepEqual(usableCounts(result), [1, 1]);
+    assert.deepEqual(poseRows(result), [['0', '50.0', '10.0', '1'], ['1', '25.0', '20.5', '1']]);
+    assert.deepEqual(graspRows(result, 1), [
+      ['0', '20.0', '0.0030', '0.0040', 'no', 'yes', '33.3'],
+      ['1', '31.5', '–', '0.0020', 'yes', 'yes', '0.0'],
+      ['2', '10.0', '0.0010', '0.0010', '–', '–', '–'],
+    ]);
+    assert.equal(graspRows(result, 0)[1][5], 'no');
+  });
+
+  it('sums up the upload, repairs included, and ignores fields it does not know', () => {
+    assert.equal(meshSummary(result, 'cube.obj'),
+      'cube.obj, obj, 12 triangles, 8 vertices, unit mm, scale 0.002: 2 stable poses, 3 grasps, 12 ms.'
+      + ' Repairs: welded 28 duplicate vertices (equal coordinates).');
+    assert.equal(meshSummary({ ...result, mesh: undefined, timing_ms: undefined }, 'a.stl'),
+      'a.stl: 2 stable poses, 3 grasps, – ms.');
+  });
+
+  it('writes lengths with a fitting unit', () => {
+    assert.equal(lengthText(0.01), '1 cm');
+    assert.equal(lengthText(0.1), '10 cm');
+    assert.equal(lengthText(1), '1 m');
+    assert.equal(lengthText(0.001), '1 mm');
+    assert.equal(lengthText(0), '');
   });
 });

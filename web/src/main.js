@@ -7,6 +7,7 @@ import './style.css';
 import { describeError, fetchInfo } from './api.js';
 import { mountFractalsPanel } from './fractals.js';
 import { mountGraspsPanel } from './grasps.js';
+import { mountMeshPanel } from './mesh_grasps.js';
 import { mountRobotPanel } from './robot.js';
 import { mountSegmentationPanel } from './segmentation.js';
 
@@ -14,6 +15,7 @@ const PANELS = {
   grasps: mountGraspsPanel,
   segmentation: mountSegmentationPanel,
   fractals: mountFractalsPanel,
+  mesh: mountMeshPanel,
   robot: mountRobotPanel,
 };
 

@@ -3,7 +3,7 @@
 // Loaded lazily (its own bundle chunk) the first time a mesh is shown.
 
 import {
-  AmbientLight, BufferGeometry, Color, DirectionalLight, DoubleSide, HemisphereLight, Mesh,
+  AmbientLight, BufferAttribute, BufferGeometry, Color, DirectionalLight, DoubleSide, HemisphereLight, Mesh,
   MeshStandardMaterial, PerspectiveCamera, Scene, Spherical, Vector3, WebGLRenderer,
 } from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -18,13 +18,17 @@ const KEY_ZOOM = 1.15;
 /** A BufferGeometry from the bytes of an OBJ, PLY (ASCII or binary) or STL file. */
 export function parseMesh(bytes, format) {
   if (format === 'obj') {
-    const group = new OBJLoader().parse(new TextDecoder().decode(bytes));
-    let geometry = null;
-    group.traverse((node) => {
-      if (!geometry && node.isMesh) geometry = node.geometry;
+    // OBJLoader makes one mesh per object or group (o, g, usemtl): join their triangles.
+    const parts = [];
+    new OBJLoader().parse(new TextDecoder().decode(bytes)).traverse((node) => {
+      if (node.isMesh) parts.push(node.geometry);
     });
-    if (!geometry) throw new Error('the OBJ file holds no faces');
-    return geometry;
+    if (!parts.length) throw new Error('the OBJ file holds no faces');
+    if (parts.length === 1) return parts[0];
+    const arrays = parts.map((g) => g.getAttribute('position').array);
+    const positions = new Float32Array(arrays.reduce((n, a) => n + a.length, 0));
+    arrays.reduce((at, a) => { positions.set(a, at); return at + a.length; }, 0);
+    return new BufferGeometry().setAttribute('position', new BufferAttribute(positions, 3));
   }
   if (format.startsWith('ply')) return new PLYLoader().parse(bytes);
   if (format.startsWith('stl')) return new STLLoader().parse(bytes);
@@ -51,6 +55,7 @@ export class MeshPreview {
       color: 0x3f7fbf, roughness: 0.55, metalness: 0.05, side: DoubleSide,
     });
     this.mesh = null;
+    this.center = new Vector3(); // what the view turns about
     this.controls = new OrbitControls(this.camera, canvas);
     this.controls.addEventListener('change', () => this.render());
     canvas.addEventListener('keydown', (event) => this.onKey(event));
@@ -81,9 +86,9 @@ export class MeshPreview {
     const distance = r / Math.sin((this.camera.fov * Math.PI) / 360) * 1.15;
     this.camera.near = distance / 100;
     this.camera.far = distance * 100;
-    this.camera.position.set(distance * 0.6, -distance * 0.5, distance * 0.62);
+    this.camera.position.set(distance * 0.6, -distance * 0.5, distance * 0.62).add(this.center);
     this.camera.up.set(0, 0, 1); // meshes are z-up, like the world frame of sim/scene
-    this.controls.target.set(0, 0, 0);
+    this.controls.target.copy(this.center);
     this.controls.minDistance = r * 0.2;
     this.controls.maxDistance = distance * 20;
     this.camera.updateProjectionMatrix();
