@@ -354,8 +354,9 @@ describe('mesh panel model', () => {
       { rank: 2, width_m: 0.01, ferrari_canny: 0.001, robust_ferrari_canny: 0.001, poses: [] },
     ],
     timing_ms: { total: 12.4 },
-    mesh: { format: 'obj', vertices: 8, triangles: 12, unit: 'mm', scale_applied: 0.002,
-      repairs: ['welded 28 duplicate vertices (equal coordinates)'], future_field: 1 },
+    mesh: { format: 'obj', vertices: 8, triangles: 12, unit_scale_m: 0.001, rescale_factor: 2,
+      scale_applied: 0.002, extents_m: [0.02, 0.02, 0.0205],
+      repairs: ['welded 28 duplicate vertices (equal coordinates)'], warnings: [], future_field: 1 },
   };
 
   it('sends format=json, the unit and only the filled-in options', () => {
@@ -404,8 +405,11 @@ describe('mesh panel model', () => {
 
   it('sums up the upload, repairs included, and ignores fields it does not know', () => {
     assert.equal(meshSummary(result, 'cube.obj'),
-      'cube.obj, obj, 12 triangles, 8 vertices, unit mm, scale 0.002: 2 stable poses, 3 grasps, 12 ms.'
-      + ' Repairs: welded 28 duplicate vertices (equal coordinates).');
+      'cube.obj, obj, 12 triangles, 8 vertices, unit mm, rescaled × 2, extents 20.0 × 20.0 × 20.5 mm:'
+      + ' 2 stable poses, 3 grasps, 12 ms. Repairs: welded 28 duplicate vertices (equal coordinates).');
+    assert.equal(meshSummary({ ...result, mesh: { unit_scale_m: 1, rescale_factor: 1,
+      warnings: ['2 faces cut through each other'] } }, 'a.ply'),
+    'a.ply, unit m: 2 stable poses, 3 grasps, 12 ms. Warnings: 2 faces cut through each other.');
     assert.equal(meshSummary({ ...result, mesh: undefined, timing_ms: undefined }, 'a.stl'),
       'a.stl: 2 stable poses, 3 grasps, – ms.');
   });

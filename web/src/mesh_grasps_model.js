@@ -94,7 +94,7 @@ export function graspRows(result, pose) {
   });
 }
 
-/** One line about the upload and the analysis. */
+/** One line about the upload (the answer's "mesh" object: format, size, unit, rescale, repairs) and the analysis. */
 export function meshSummary(result, fileName) {
   const mesh = result.mesh || {};
   const poses = result.stable_poses.length;
@@ -103,9 +103,14 @@ export function meshSummary(result, fileName) {
   if (mesh.format) parts.push(`${mesh.format}`);
   if (typeof mesh.triangles === 'number') parts.push(`${mesh.triangles} triangles`);
   if (typeof mesh.vertices === 'number') parts.push(`${mesh.vertices} vertices`);
-  if (mesh.unit) parts.push(`unit ${mesh.unit}`);
-  const scale = mesh.scale_applied ?? mesh.scale;
-  if (typeof scale === 'number') parts.push(`scale ${Number(scale.toPrecision(4))}`);
+  const unit = mesh.unit || { 1: 'm', 0.001: 'mm' }[mesh.unit_scale_m];
+  if (unit) parts.push(`unit ${unit}`);
+  if (typeof mesh.rescale_factor === 'number' && mesh.rescale_factor !== 1) {
+    parts.push(`rescaled × ${Number(mesh.rescale_factor.toPrecision(4))}`);
+  }
+  if (Array.isArray(mesh.extents_m) && mesh.extents_m.length === 3) {
+    parts.push(`extents ${mesh.extents_m.map((x) => fixed(x * 1000, 1)).join(' × ')} mm`);
+  }
   const repairs = Array.isArray(mesh.repairs) && mesh.repairs.length
     ? ` Repairs: ${mesh.repairs.join('; ')}.` : '';
   const warnings = Array.isArray(mesh.warnings) && mesh.warnings.length
