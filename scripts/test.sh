@@ -10,15 +10,15 @@ bash "$root/scripts/build.sh"
 ctest --test-dir "${SOFTGRASP_BUILD_DIR:-$root/build}" -j "$(nproc)" --output-on-failure
 
 # The code that reads bytes from outside (HTTP parsing, static files, image and mesh decoders, the
-# JSON codec), once more under AddressSanitizer + UBSan: their unit tests and the fuzz-corpus
-# replays; the grasp planners (the fast FGE's buffer and index arithmetic); and the mesh grasp
-# analysis (Qhull's C memory, Embree queries).
+# preparation of uploaded meshes, the JSON codec), once more under AddressSanitizer + UBSan: their
+# unit tests and the fuzz-corpus replays; the grasp planners (the fast FGE's buffer and index
+# arithmetic); and the mesh grasp analysis (Qhull's C memory, Embree queries).
 SOFTGRASP_BUILD_DIR="$root/build-asan" SOFTGRASP_WEB=0 \
 SOFTGRASP_TARGETS="http_message_test http_parser_test http_response_writer_test
   http_router_test http_server_test
   http_static_files_test io_npy_test io_png_tiff_test io_mask_test io_intrinsics_test
-  io_fuzz_corpus_test mesh_io_test http_request_replay depth_decode_replay mask_decode_replay
-  mesh_decode_replay response_writer_replay codec_test json_codec_replay
+  io_fuzz_corpus_test mesh_io_test mesh_prepare_test http_request_replay depth_decode_replay
+  mask_decode_replay mesh_decode_replay response_writer_replay codec_test json_codec_replay
   preprocess_test fge_test fge_stiffness_test
   raycast_test mesh_stable_poses_test mesh_grasp_quality_test mesh_antipodal_test" \
   bash "$root/scripts/build.sh" -DSOFTGRASP_SANITIZER=address,undefined -DSOFTGRASP_BUILD_BENCHMARKS=OFF

@@ -1,13 +1,19 @@
-// Fuzzes the mesh decoders (OBJ, PLY, STL; sniffed). A successful decode must respect the
-// limits, hold only in-range indices and finite coordinates, and survive a write/read round trip
-// (exactly for OBJ and PLY; STL is float32 and welds, so only success is required).
+// Fuzzes the mesh decoders (OBJ, PLY, STL; sniffed) and the preparation of what they decode. A
+// successful decode must respect the limits, hold only in-range indices and finite coordinates,
+// and survive a write/read round trip (exactly for OBJ and PLY; STL is float32 and welds, so only
+// success is required). PrepareMesh (small limits; with and without Dex-Net's rescale) must then
+// give a closed, 2-manifold, connected, outward solid with finite coordinates within the limits,
+// or refuse with kUnprocessable or kPayloadTooLarge on field "mesh": nothing else, and no crash.
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <string_view>
 
+#include "service/mesh/mesh_check.h"
 #include "service/mesh/mesh_io.h"
+#include "service/mesh/mesh_prepare.h"
 
 namespace {
 
@@ -32,6 +38,56 @@ void CheckDecoded(const TriangleMesh& mesh) {
     for (const double x : v) {
       if (!std::isfinite(x)) std::abort();
     }
+  }
+}
+
+constexpr std::int64_t kMaxPrepareTriangles = 1 << 12;
+
+void CheckPrepared(const TriangleMesh& decoded, const softgrasp::mesh::PrepareOptions& options) {
+  using softgrasp::core::ErrorCode;
+  const auto prepared = softgrasp::mesh::PrepareMesh(decoded, options);
+  if (!prepared.ok()) {
+    const auto& e = prepared.error();
+    const bool allowed = e.code == ErrorCode::kUnprocessable ||
+                         (e.code == ErrorCode::kPayloadTooLarge &&
+                          static_cast<std::int64_t>(decoded.faces.size()) > options.max_triangles);
+    if (!allowed || e.field != "mesh" || e.message.empty()) std::abort();
+    return;
+  }
+  const softgrasp::mesh::PreparedMesh& p = prepared.value();
+  const TriangleMesh& m = p.mesh;
+  if (m.faces.empty() || static_cast<std::int64_t>(m.faces.size()) > options.max_triangles ||
+      m.faces.size() > decoded.faces.size() || m.vertices.size() > decoded.vertices.size()) {
+    std::abort();
+  }
+  for (const auto& v : m.vertices) {
+    for (const double x : v) {
+      if (!std::isfinite(x)) std::abort();
+    }
+  }
+  const auto r = softgrasp::mesh::CheckMesh(m, {.self_intersections = false});
+  if (!(r.indices_valid && r.closed && r.edge_manifold && r.vertex_manifold && r.connected &&
+        r.consistently_oriented && r.outward && r.num_degenerate_faces == 0 &&
+        r.num_unreferenced_vertices == 0 && r.num_nonfinite_vertices == 0)) {
+    std::abort();
+  }
+  if (!(p.volume_m3 > 0.0) || !std::isfinite(p.volume_m3) ||
+      !(p.extents_m[0] >= options.min_extent_m) || !(p.extents_m[2] <= options.max_extent_m) ||
+      !(p.scale_applied > 0.0) || !std::isfinite(p.scale_applied)) {
+    std::abort();
+  }
+  // Rescaled: the smallest principal extent is the target, up to the rounding of coordinates
+  // (far from the origin, a span is a difference of large numbers).
+  if (options.rescale_min_extent_m) {
+    double largest = 0.0;
+    for (const auto& v : m.vertices) {
+      for (const double x : v) largest = std::max(largest, std::abs(x));
+    }
+    const double target = *options.rescale_min_extent_m;
+    if (!(std::abs(p.extents_m[0] - target) <= 1e-9 * target + 1e-13 * largest)) std::abort();
+  }
+  for (const auto& line : p.repairs) {
+    if (line.empty()) std::abort();
   }
 }
 
@@ -64,5 +120,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       if (!softgrasp::mesh::ReadMesh(softgrasp::mesh::WriteStl(m, e), options).ok()) std::abort();
     }
   }
+
+  // Preparation: wide size limits so that odd inputs get through to the later steps.
+  softgrasp::mesh::PrepareOptions prepare;
+  prepare.max_triangles = kMaxPrepareTriangles;
+  prepare.min_extent_m = 1e-9;
+  prepare.max_extent_m = 1e9;
+  prepare.max_debris_volume_fraction = 0.01;
+  prepare.self_intersection_min_box_pairs = 20000;
+  CheckPrepared(m, prepare);
+  prepare.unit_scale_m = 0.001;
+  prepare.rescale_min_extent_m = 0.04;
+  prepare.self_intersections = softgrasp::mesh::SelfIntersectionPolicy::kRefuse;
+  CheckPrepared(m, prepare);
   return 0;
 }
