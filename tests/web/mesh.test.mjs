@@ -320,6 +320,12 @@ describe('mesh panel in chromium', () => {
     const view = await viewPixels(page);
     assert.ok(view.differing > view.total * 0.05 && view.magenta > 20, JSON.stringify(view));
     await page.locator('#mesh-canvas').screenshot({ path: artifactPath('mesh-cube-view.png') });
+    // On a phone the results fit (the tables scroll inside their boxes): nothing scrolls sideways.
+    await page.setViewportSize({ width: 390, height: 844 });
+    const widths = await page.evaluate(() => [document.documentElement.scrollWidth,
+      document.documentElement.clientWidth]);
+    assert.ok(widths[0] <= widths[1], `no sideways scrolling: ${widths}`);
+    await page.locator('#mesh').screenshot({ path: artifactPath('mesh-phone.png') });
     assert.deepEqual(errors, []);
     await context.close();
   });

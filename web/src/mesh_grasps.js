@@ -151,6 +151,7 @@ export function mountMeshPanel(root, info) {
         }).then((r) => r.text());
         const result = JSON.parse(json);
         Object.assign(state, { result, pose: 0, selected: result.grasps.length ? 0 : -1 });
+        root.dataset.selectedGrasp = String(state.selected);
         const stem = file.name.replace(/\.[^.]*$/, '') || 'mesh';
         setDownload(root.querySelector('#mesh-download-json'),
           new Blob([json], { type: 'application/json' }), `${stem}-grasps.json`);

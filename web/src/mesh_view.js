@@ -36,9 +36,12 @@ function clear(group) {
   }
 }
 
-/** Grid spacing for an object of bounding radius r: a power of ten, 1 cm for a 5 cm object. */
+/** Grid spacing for an object of bounding radius r: 1, 2 or 5 times a power of ten, 10-25 cells over 4 r. */
 export function gridStep(r) {
-  return 10 ** Math.round(Math.log10(r / 2));
+  const target = (4 * r) / 10;
+  const power = 10 ** Math.floor(Math.log10(target));
+  const m = target / power;
+  return (m >= 5 ? 5 : m >= 2 ? 2 : 1) * power;
 }
 
 export class MeshGraspView extends MeshPreview {
@@ -95,11 +98,11 @@ export class MeshGraspView extends MeshPreview {
     }
   }
 
-  /** A square of table under the centre of mass, 4 bounding radii wide, with a grid. */
+  /** A square of table under the centre of mass, about 4 bounding radii wide, with a grid. */
   makeTable() {
     clear(this.table);
     const step = gridStep(this.radius);
-    const cells = Math.max(4, Math.ceil((4 * this.radius) / step));
+    const cells = Math.ceil((4 * this.radius) / step);
     const size = cells * step;
     const top = new Mesh(new PlaneGeometry(size, size),
       new MeshStandardMaterial({ color: 0xd9d2c5, roughness: 0.9 }));
