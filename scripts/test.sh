@@ -12,7 +12,7 @@ ctest --test-dir "${SOFTGRASP_BUILD_DIR:-$root/build}" -j "$(nproc)" --output-on
 # The code that reads bytes from outside (HTTP parsing, static files, image and mesh decoders, the
 # preparation of uploaded meshes, the JSON codec), once more under AddressSanitizer + UBSan: their
 # unit tests and the fuzz-corpus replays; the grasp planners (the fast FGE's buffer and index
-# arithmetic); and the mesh grasp analysis (Qhull's C memory, Embree queries).
+# arithmetic); and the mesh grasp analysis (Qhull's C memory, Embree and FCL queries).
 SOFTGRASP_BUILD_DIR="$root/build-asan" SOFTGRASP_WEB=0 \
 SOFTGRASP_TARGETS="http_message_test http_parser_test http_response_writer_test
   http_router_test http_server_test
@@ -20,7 +20,8 @@ SOFTGRASP_TARGETS="http_message_test http_parser_test http_response_writer_test
   io_fuzz_corpus_test mesh_io_test mesh_prepare_test http_request_replay depth_decode_replay
   mask_decode_replay mesh_decode_replay response_writer_replay codec_test json_codec_replay
   preprocess_test fge_test fge_stiffness_test
-  raycast_test mesh_stable_poses_test mesh_grasp_quality_test mesh_antipodal_test" \
+  raycast_test mesh_stable_poses_test mesh_grasp_quality_test mesh_antipodal_test
+  mesh_gripper_collision_test mesh_grasp_analysis_test" \
   bash "$root/scripts/build.sh" -DSOFTGRASP_SANITIZER=address,undefined -DSOFTGRASP_BUILD_BENCHMARKS=OFF
 # Tests of targets not built in this pass show up as *_NOT_BUILT: skip them.
 ctest --test-dir "$root/build-asan" -j "$(nproc)" --output-on-failure -L 'http|io|mesh|fuzz|core' \

@@ -1,5 +1,6 @@
 // softgrasp-sim: the simulator's command line: `generate` (datasets of simulated scenes),
-// `fractals` (batches of fractal training meshes) and `robot` (a simulated robot on the DDS bus).
+// `fractals` (batches of fractal training meshes), `mesh-grasps` (Dex-Net style grasp analyses
+// of mesh files) and `robot` (a simulated robot on the DDS bus).
 // Parsing only; the work is in the libraries.
 #include <iostream>
 #include <memory>
@@ -12,6 +13,7 @@
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/user_objects.h"
 #include "sim/fractal_batch.h"
+#include "sim/mesh_grasps_batch.h"
 #include "sim/progress.h"
 #include "sim/robot/robot_cli.h"
 
@@ -42,7 +44,17 @@ constexpr const char* kUsage =
     "usage: softgrasp-sim fractals --count N --seed S --out DIR [--alpha A] [--sigma S]\n"
     "                              [--points P] [--maps MIN-MAX] [--format F]\n"
     "  F: obj (default), ply, ply_ascii, ply_binary, stl, stl_ascii, stl_binary.\n"
-    "  Writes fractal_<seed>.<ext> for seeds S..S+N-1 and index.json (docs/fractals.md).\n";
+    "  Writes fractal_<seed>.<ext> for seeds S..S+N-1 and index.json (docs/fractals.md).\n"
+    "\n"
+    "usage: softgrasp-sim mesh-grasps MESH... --out DIR [--unit m|mm] [--rescale-mm X]\n"
+    "                                 [--grasps N] [--robust-samples N] [--seed S]\n"
+    "                                 [--friction MU] [--stroke-mm X] [--png]\n"
+    "  Stable poses, antipodal grasps with (robust) Ferrari-Canny quality and per-pose\n"
+    "  collision checks of each OBJ/PLY/STL file (docs/mesh-grasps.md): DIR/<stem>.json\n"
+    "  per mesh (the answer of POST /v1/meshes/grasps), with --png a preview of the most\n"
+    "  probable pose, and DIR/index.json. Defaults: unit m, no rescale (Dex-Net: 40), 100\n"
+    "  grasps, 25 robust samples, seed 0, friction 0.5, stroke 50 mm. Exit 1 if a file\n"
+    "  could not be analysed (the others are written).\n";
 
 // Returns an error message, or "" when `params` is filled.
 std::string ParseGenerateArgs(std::vector<std::string> argv, sim::DatasetParams* params) {
@@ -157,6 +169,56 @@ int RunFractals(const std::vector<std::string>& args) {
   return 0;
 }
 
+// Returns an error message, or "" when `params` is filled.
+std::string ParseMeshGraspsArgs(std::vector<std::string> argv, sim::MeshGraspBatchParams* params) {
+  cli::Args args(std::move(argv));
+  std::string out;
+  args.Required("--out", "DIR", &out);
+  params->out_dir = out;
+  mesh::MeshFileJob& job = params->job;
+  args.Choice<double>("--unit", {{"m", 1.0}, {"mm", 0.001}}, &job.prepare.unit_scale_m);
+  double rescale_mm = 0;
+  if (args.Number("--rescale-mm", cli::Bounds::Above(0), &rescale_mm)) {
+    job.prepare.rescale_min_extent_m = rescale_mm * 1e-3;
+  }
+  args.Int("--grasps", 1, 1000, &job.analysis.num_grasps);
+  args.Int("--robust-samples", 0, 200, &job.analysis.robust_samples);
+  args.Int("--seed", 0, cli::kNoLimit, &job.analysis.seed);
+  args.Number("--friction", cli::Bounds::Closed(0, 5), &job.analysis.friction_coefficient);
+  double stroke_mm = 0;
+  if (args.Number("--stroke-mm", cli::Bounds::LeftOpen(0, 1000), &stroke_mm)) {
+    job.analysis.gripper.opening_m = stroke_mm * 1e-3;
+  }
+  params->png = args.Flag("--png");
+  if (!args.ok()) return args.Finish()->message;
+  // What is left: the mesh files, and anything else that looks like an option.
+  for (const std::string& token : args.remaining()) {
+    if (token.rfind("--", 0) == 0) return "unknown argument " + token;
+    params->meshes.emplace_back(token);
+  }
+  if (params->meshes.empty()) return "at least one MESH file is required";
+  return "";
+}
+
+int RunMeshGrasps(const std::vector<std::string>& args) {
+  sim::MeshGraspBatchParams params;
+  if (const std::string problem = ParseMeshGraspsArgs(args, &params); !problem.empty()) {
+    std::cerr << "softgrasp-sim mesh-grasps: " << problem << "\n" << kUsage;
+    return 2;
+  }
+  sim::ProgressBar bar("meshes", static_cast<int>(params.meshes.size()));
+  auto result = sim::AnalyseMeshBatch(params, [&bar](int done) { bar.Update(done); });
+  if (!result.ok()) {
+    std::cerr << "softgrasp-sim mesh-grasps: " << result.error().message << "\n";
+    return 1;
+  }
+  for (const std::string& failure : result.value().failures) {
+    std::cerr << "softgrasp-sim mesh-grasps: " << failure << "\n";
+  }
+  std::cout << result.value().index.string() << "\n";
+  return result.value().failures.empty() ? 0 : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -167,6 +229,7 @@ int main(int argc, char** argv) {
   }
   if (args[0] == "generate") return RunGenerate({args.begin() + 1, args.end()});
   if (args[0] == "fractals") return RunFractals({args.begin() + 1, args.end()});
+  if (args[0] == "mesh-grasps") return RunMeshGrasps({args.begin() + 1, args.end()});
   if (args[0] == "robot") return sim::RunRobotCommand({args.begin() + 1, args.end()});
   std::cerr << "softgrasp-sim: unknown command '" << args[0] << "'\n"
             << kUsage << "\n"

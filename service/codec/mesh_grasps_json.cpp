@@ -98,4 +98,22 @@ json ToJson(const mesh::MeshGraspAnalysis& analysis) {
   return j;
 }
 
+json ToJson(const mesh::MeshFileAnalysis& file) {
+  json j = ToJson(file.analysis);
+  const mesh::PreparedMesh& p = file.prepared;
+  j["mesh"] = {{"format", mesh::MeshFormatName(file.format)},
+               {"vertices", p.mesh.vertices.size()},
+               {"triangles", p.mesh.faces.size()},
+               {"unit_scale_m", p.unit_scale_m},
+               {"rescale_factor", p.rescale_factor},
+               {"scale_applied", p.scale_applied},
+               {"extents_m", p.extents_m},
+               {"volume_m3", p.volume_m3},
+               {"repairs", p.repairs},
+               {"warnings", p.warnings}};
+  j["timing_ms"]["decode"] = file.decode_ms;
+  j["timing_ms"]["prepare"] = file.prepare_ms;
+  return j;
+}
+
 }  // namespace softgrasp::codec

@@ -27,4 +27,9 @@ nlohmann::json ToJson(const mesh::MeshGraspAnalysis& analysis);
 /// golden comparisons use).
 nlohmann::json ToJsonWithoutTiming(const mesh::MeshGraspAnalysis& analysis);
 
+/// An analysed file: ToJson(analysis) plus "mesh": {"format", "vertices", "triangles",
+/// "unit_scale_m", "rescale_factor", "scale_applied" (prepared = file coordinates x this),
+/// "extents_m", "volume_m3", "repairs", "warnings"} and "timing_ms" gaining "decode" and "prepare".
+nlohmann::json ToJson(const mesh::MeshFileAnalysis& file);
+
 }  // namespace softgrasp::codec

@@ -159,6 +159,31 @@ core::Result<MeshGraspAnalysis> AnalyseMeshGrasps(const TriangleMesh& mesh_o,
   return analysis;
 }
 
+core::Result<MeshFileAnalysis> AnalyseMeshFile(std::string_view bytes, const MeshFileJob& job) {
+  MeshFileAnalysis out;
+  Clock::time_point phase = Clock::now();
+  auto format = SniffMeshFormat(bytes);
+  if (!format.ok()) return format.error();
+  out.format = format.value();
+  MeshReadOptions read;
+  read.max_faces = job.prepare.max_triangles;
+  read.max_vertices = 3 * job.prepare.max_triangles;
+  auto decoded = ReadMesh(bytes, read);
+  if (!decoded.ok()) return decoded.error();
+  out.decode_ms = MsSince(phase);
+
+  phase = Clock::now();
+  auto prepared = PrepareMesh(std::move(decoded).value(), job.prepare);
+  if (!prepared.ok()) return prepared.error();
+  out.prepared = std::move(prepared).value();
+  out.prepare_ms = MsSince(phase);
+
+  auto analysis = AnalyseMeshGrasps(out.prepared.mesh, job.analysis);
+  if (!analysis.ok()) return analysis.error();
+  out.analysis = std::move(analysis).value();
+  return out;
+}
+
 core::Result<PoseView> RenderPoseView(const TriangleMesh& mesh_o, const MeshGraspAnalysis& analysis,
                                       int pose_index, const GripperBoxes& gripper, int size_px,
                                       int max_grasps) {
@@ -219,8 +244,9 @@ core::Result<PoseView> RenderPoseView(const TriangleMesh& mesh_o, const MeshGras
     if (angle < 0.0) angle += std::numbers::pi;
     if (angle >= std::numbers::pi) angle -= std::numbers::pi;
     g.angle_rad = angle;
-    g.opening_m = gripper.opening_m;
-    g.opening_px = gripper.opening_m * px_per_m;
+    // Drawn closed on the object: the fingers at the contacts.
+    g.opening_m = analysed.grasp.width_m;
+    g.opening_px = analysed.grasp.width_m * px_per_m;
     g.finger_width_px = gripper.finger_width_m * px_per_m;
     g.finger_thickness_px = gripper.finger_thickness_m * px_per_m;
     g.score = analysed.robust_ferrari_canny.value_or(analysed.ferrari_canny);

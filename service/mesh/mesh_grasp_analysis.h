@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <optional>
+#include <string_view>
 #include <vector>
 
 #include "service/core/depth.h"
@@ -19,6 +20,8 @@
 #include "service/mesh/grasp_quality.h"
 #include "service/mesh/gripper_collision.h"
 #include "service/mesh/mesh.h"
+#include "service/mesh/mesh_io.h"
+#include "service/mesh/mesh_prepare.h"
 #include "service/mesh/stable_poses.h"
 
 namespace softgrasp::mesh {
@@ -89,6 +92,26 @@ struct MeshGraspAnalysis {
 core::Result<MeshGraspAnalysis> AnalyseMeshGrasps(const TriangleMesh& mesh_o,
                                                   const MeshGraspOptions& options);
 
+/// A mesh file analysed: decoded (any format ReadMesh reads), prepared (repaired, checked, in
+/// metres, optionally rescaled), then AnalyseMeshGrasps.
+struct MeshFileJob {
+  PrepareOptions prepare;  ///< its max_triangles also bounds the decoder
+  MeshGraspOptions analysis;
+};
+
+struct MeshFileAnalysis {
+  MeshFormat format = MeshFormat::kObj;
+  PreparedMesh prepared;
+  MeshGraspAnalysis analysis;
+  double decode_ms = 0.0;
+  double prepare_ms = 0.0;
+};
+
+/// Errors: ReadMesh's (415 unknown format, 400 malformed, 413 too large), PrepareMesh's (413 too
+/// many triangles, 422 not closed, non-manifold, several pieces, degenerate, ...), then
+/// AnalyseMeshGrasps'.
+core::Result<MeshFileAnalysis> AnalyseMeshFile(std::string_view bytes, const MeshFileJob& job);
+
 /// A depth picture of the mesh resting in `pose` on the table, from straight above: the camera
 /// looks down the table's -z at the centre of mass and is placed so that the object's bounding
 /// sphere fills about 80 % of the image's shorter side. The table is not drawn (NaN around).
@@ -97,7 +120,8 @@ struct PoseView {
   core::Camera camera;
   Eigen::Isometry3d table_from_camera = Eigen::Isometry3d::Identity();
   /// The grasps aligned and collision-free in this pose, best first, as the planners' top-down
-  /// grasps in this camera (pixel footprint, closing angle, opening = the gripper's stroke).
+  /// grasps in this camera (pixel footprint, closing angle, opening = the grasp's width: the
+  /// fingers drawn at the contacts).
   std::vector<core::Grasp> grasps;
 };
 

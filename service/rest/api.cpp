@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "service/codec/json_codec.h"
+#include "service/codec/mesh_grasps_json.h"
 #include "service/core/fge_deformability.h"
 #include "service/core/preprocess.h"
 #include "service/engine/engine.h"
@@ -17,6 +18,7 @@
 #include "service/rest/build_info.h"
 #include "service/rest/depth_request.h"
 #include "service/rest/fractal_request.h"
+#include "service/rest/mesh_request.h"
 #include "service/rest/robot_api.h"
 
 namespace softgrasp::rest {
@@ -492,6 +494,28 @@ http::Response Fractals(const http::Request& request, const config::ServiceConfi
   return file;
 }
 
+http::Response MeshGrasps(const http::Request& request, const config::ServiceConfig& config) {
+  auto parsed = ParseMeshGraspRequest(request, config);
+  if (!parsed.ok()) return ErrorToResponse(parsed.error());
+  const MeshGraspRequest& in = parsed.value();
+  mesh::MeshFileJob job;
+  job.prepare.unit_scale_m = in.unit_scale_m;
+  job.prepare.rescale_min_extent_m = in.rescale_min_extent_m;
+  job.prepare.max_triangles = kMaxUploadTriangles;
+  job.analysis = in.analysis;
+  auto analysed = mesh::AnalyseMeshFile(in.mesh_bytes, job);
+  if (!analysed.ok()) return ErrorToResponse(analysed.error());
+  if (in.output == OutputFormat::kJson) {
+    return http::Response::Json(200, codec::ToJson(analysed.value()).dump());
+  }
+  auto view = mesh::RenderPoseView(analysed.value().prepared.mesh, analysed.value().analysis,
+                                   in.preview_pose, in.analysis.gripper, in.preview_size_px,
+                                   in.preview_grasps);
+  if (!view.ok()) return ErrorToResponse(view.error());
+  return PngResponse(io::RenderGraspOverlay(view.value().depth, view.value().grasps),
+                     view.value().grasps.size());
+}
+
 // The page loads only its own bundled files and talks only to this service.
 constexpr const char* kPageSecurityPolicy =
     "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' blob: data:; "
@@ -573,6 +597,8 @@ http::Router BuildRouter(const config::ServiceConfig& config,
              [config, models](const http::Request& r) { return Segmentation(r, config, models); });
   router.Add("POST", "/v1/fractals",
              [config](const http::Request& r) { return Fractals(r, config); });
+  router.Add("POST", "/v1/meshes/grasps",
+             [config](const http::Request& r) { return MeshGrasps(r, config); });
 
   // The browser page (docs/web.md): index.html at "/", content-hashed bundles under /assets/.
   auto files = std::make_shared<const http::StaticFiles>(http::StaticFilesOptions{config.web_root});

@@ -80,7 +80,9 @@ const std::map<std::string, MeshOption>& Options() {
   return options;
 }
 
-// Query parameters and form fields merged (form fields win); the mesh bytes.
+// Query parameters and form fields merged (form fields win); the mesh bytes. Any other body is
+// the file itself whatever its Content-Type says (curl --data-binary labels it a url-encoded
+// form): the format is sniffed from the bytes.
 core::Result<std::pair<FieldValues, std::string>> Collect(const http::Request& request) {
   FieldValues values;
   for (const auto& [key, value] : request.query) values[key] = value;
@@ -96,8 +98,7 @@ core::Result<std::pair<FieldValues, std::string>> Collect(const http::Request& r
         values[part.name] = std::move(part.data);
       }
     }
-  } else if (content_type.rfind("application/json", 0) == 0 ||
-             content_type.rfind("application/x-www-form-urlencoded", 0) == 0) {
+  } else if (content_type.rfind("application/json", 0) == 0) {
     return MakeError(ErrorCode::kUnsupportedMediaType,
                      "send the mesh file (OBJ, PLY or STL) as the raw body or as the "
                      "multipart/form-data part 'mesh'; got '" +

@@ -6,9 +6,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include "service/codec/mesh_grasps_json.h"
 #include "service/mesh/mesh_io.h"
@@ -114,8 +118,10 @@ TEST(MeshGraspAnalysisTest, PreviewSeesTheTopFaceAtItsDepthAndDrawsGraspsOnTheCu
     const int row = static_cast<int>(std::lround(g.center_v_px));
     ASSERT_TRUE(u >= 0 && u < 200 && row >= 0 && row < 200);
     EXPECT_FALSE(std::isnan(v.depth.depth_m(row, u))) << "a grasp centre off the cube";
-    // The drawn opening is the stroke at the grasp's depth.
-    EXPECT_NEAR(g.opening_px, 0.05 * v.camera.fx / g.p_CG_m[2], 1e-9);
+    // The fingers are drawn at the contacts: the cube's 40 mm (up to the friction cone's tilt).
+    const double px_per_m = v.camera.fx / g.p_CG_m[2];
+    EXPECT_GE(g.opening_px, 0.04 * px_per_m - 1e-9);
+    EXPECT_LE(g.opening_px, 0.04 / std::cos(std::atan(0.5)) * px_per_m + 1e-9);
   }
   EXPECT_EQ(RenderPoseView(cube, analysis, 6, gripper).error().field, "pose");
   EXPECT_EQ(RenderPoseView(cube, analysis, 0, gripper, 8).error().field, "size_px");
@@ -135,6 +141,48 @@ TEST(MeshGraspAnalysisTest, RefusesBadOptionsAndMeshesWithoutVolume) {
   TriangleMesh inside_out = cube;
   for (auto& f : inside_out.faces) std::swap(f[1], f[2]);
   EXPECT_EQ(AnalyseMeshGrasps(inside_out, {}).error().code, core::ErrorCode::kUnprocessable);
+}
+
+// The Dex-Net bar clamp (tests/data/meshes): two long arms (the bar and the handle) joined by a
+// ring at +x, their free ends (the jaw tips: the chamfered end of one arm, the block on the
+// other) at x < -50 mm. Grasps across the arms' parallel sides are robust; grasps on the tips'
+// chamfers and corners are not. Over three seeds, arm grasps rank above tip grasps: a higher
+// median robust quality and a better (lower) mean rank.
+TEST(MeshGraspAnalysisTest, BarClampGraspsOnTheBarAndHandleRankAboveTheJawTips) {
+  std::ifstream in(testing::TestData("meshes/dexnet_bar_clamp.obj"), std::ios::binary);
+  const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  ASSERT_FALSE(bytes.empty());
+  for (const std::uint64_t seed : {1u, 2u, 3u}) {
+    SCOPED_TRACE(seed);
+    MeshFileJob job;
+    job.analysis.robust_samples = 10;
+    job.analysis.seed = seed;
+    auto file = AnalyseMeshFile(bytes, job);
+    ASSERT_TRUE(file.ok()) << file.error().message;
+    const MeshGraspAnalysis& analysis = file.value().analysis;
+    std::vector<double> arms, tips;
+    double arm_rank = 0, tip_rank = 0;
+    for (std::size_t rank = 0; rank < analysis.grasps.size(); ++rank) {
+      const AnalysedGrasp& g = analysis.grasps[rank];
+      const double x = g.grasp.center_m.x();
+      if (x > -0.04 && x < 0.03) {
+        arms.push_back(*g.robust_ferrari_canny);
+        arm_rank += static_cast<double>(rank);
+      } else if (x < -0.05) {
+        tips.push_back(*g.robust_ferrari_canny);
+        tip_rank += static_cast<double>(rank);
+      }
+    }
+    ASSERT_GE(arms.size(), 10u);
+    ASSERT_GE(tips.size(), 5u);
+    const auto median = [](std::vector<double> v) {
+      std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+      return v[v.size() / 2];
+    };
+    EXPECT_GT(median(arms), 1.5 * median(tips));
+    EXPECT_LT(arm_rank / static_cast<double>(arms.size()),
+              tip_rank / static_cast<double>(tips.size()));
+  }
 }
 
 }  // namespace

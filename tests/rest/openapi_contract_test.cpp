@@ -84,6 +84,14 @@ TEST(OpenApiContractTest, ResponsesMatchTheirSchemas) {
       validator.Validate(json::parse(fractal.body), spec["components"]["schemas"]["FractalStats"]),
       std::vector<std::string>{});
 
+  const auto mesh_grasps = server.Send(testing::RawRequest(
+      "POST", "/v1/meshes/grasps?num_grasps=10&robust_samples=2", "application/octet-stream",
+      testing::ReadFileBytes(testing::TestData("meshes/dexnet_bar_clamp.obj"))));
+  ASSERT_EQ(mesh_grasps.status, 200) << mesh_grasps.body;
+  EXPECT_EQ(validator.Validate(json::parse(mesh_grasps.body),
+                               schema_of("/v1/meshes/grasps", "post", "200")),
+            std::vector<std::string>{});
+
   // Errors from the HTTP layer (unknown route) have the same shape.
   const auto missing = server.Send(testing::RawRequest("GET", "/nope"));
   EXPECT_EQ(missing.status, 404);
