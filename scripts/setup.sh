@@ -9,7 +9,7 @@ PACKAGES=(
   # libraries of the service, the simulator and the models
   libopencv-dev libeigen3-dev nlohmann-json3-dev libtiff-dev libpng-dev zlib1g-dev libyaml-cpp-dev
   cyclonedds-dev cyclonedds-tools libembree-dev libpcl-dev libbullet-dev libtorch-dev libcgal-dev
-  libqhull-dev libfcl-dev
+  libqhull-dev libfcl-dev libglpk-dev
   # tests and benchmarks; chromium drives the browser tests of the web page (tests/web)
   libgtest-dev libgmock-dev libbenchmark-dev chromium
   # the two-host test (tests/netns): network namespaces and veth pairs, HTTP and JSON in bash

@@ -18,6 +18,7 @@ extern "C" {
 #pragma GCC diagnostic ignored "-Wpedantic"
 #pragma GCC diagnostic ignored "-Wold-style-cast"
 #pragma GCC diagnostic ignored "-Wshadow"
+#include <glpk.h>
 #include <libqhull_r/qhull_ra.h>
 #pragma GCC diagnostic pop
 }
@@ -149,6 +150,49 @@ HullOutcome RunQhull(std::vector<coordT>& points, int count, const char* flags, 
 /// else 0. Qhull first runs without merging ("Q0", several times faster on these small, nearly
 /// degenerate sets) and its facets are checked to support every point; if that run fails or a
 /// check fails, Qhull runs again with its default merging of coplanar facets.
+/// True when a direction u with w_j . u <= tolerance |u| for every column is found, i.e. the
+/// wrench hull lies in a half-space whose boundary passes within `tolerance` of the origin: the
+/// origin is then not inside by more than the tolerance and the quality is 0 without a hull.
+/// GLPK's simplex looks for u with w_j . u <= 0 and (sum_j w_j) . u = -1, which is feasible
+/// exactly when the origin is not interior (for a full-dimensional set); its answer is then
+/// checked on the columns themselves, so a rounding in the solver can only send the case on to
+/// Qhull, never decide it.
+bool OriginSeparated(const Wrenches& w, double tolerance) {
+  const int m = static_cast<int>(w.cols());
+  glp_prob* lp = glp_create_prob();
+  glp_add_cols(lp, 6);
+  for (int i = 1; i <= 6; ++i) glp_set_col_bnds(lp, i, GLP_FR, 0.0, 0.0);
+  glp_add_rows(lp, m + 1);
+  std::vector<int> rows(1), cols(1);
+  std::vector<double> values(1);  // GLPK's arrays start at index 1
+  const Eigen::Matrix<double, 6, 1> sum = w.rowwise().sum();
+  for (int j = 0; j <= m; ++j) {
+    if (j < m) {
+      glp_set_row_bnds(lp, j + 1, GLP_UP, 0.0, 0.0);
+    } else {
+      glp_set_row_bnds(lp, j + 1, GLP_FX, -1.0, -1.0);
+    }
+    for (int i = 0; i < 6; ++i) {
+      rows.push_back(j + 1);
+      cols.push_back(i + 1);
+      values.push_back(j < m ? w(i, j) : sum[i]);
+    }
+  }
+  glp_load_matrix(lp, static_cast<int>(values.size()) - 1, rows.data(), cols.data(), values.data());
+  glp_smcp options;
+  glp_init_smcp(&options);
+  options.msg_lev = GLP_MSG_OFF;
+  Eigen::Matrix<double, 6, 1> u = Eigen::Matrix<double, 6, 1>::Zero();
+  const bool feasible = glp_simplex(lp, &options) == 0 && glp_get_status(lp) == GLP_OPT;
+  if (feasible) {
+    for (int i = 0; i < 6; ++i) u[i] = glp_get_col_prim(lp, i + 1);
+  }
+  glp_delete_prob(lp);
+  const double norm = u.norm();
+  if (!feasible || !(norm > 0.0) || !std::isfinite(norm)) return false;
+  return (w.transpose() * u).maxCoeff() <= tolerance * norm;
+}
+
 double HullQuality(const Wrenches& w) {
   const Eigen::Index m = w.cols();
   if (m < 7 || !w.allFinite()) return 0.0;
@@ -163,12 +207,16 @@ double HullQuality(const Wrenches& w) {
   const auto& sv = svd.singularValues();
   if (!(sv[5] > 1e-10 * sv[0])) return 0.0;
 
+  const double tolerance = 1e-12 * scale;
+  // Most noisy samples of a grasp are not in force closure: prove those 0 by a separating
+  // direction (a small linear programme) before building a hull.
+  if (OriginSeparated(w, tolerance)) return 0.0;
+
   std::vector<coordT> points(static_cast<std::size_t>(6 * m));
   for (Eigen::Index j = 0; j < m; ++j) {
     for (int i = 0; i < 6; ++i) points[static_cast<std::size_t>(6 * j + i)] = w(i, j);
   }
   const int count = static_cast<int>(m);
-  const double tolerance = 1e-12 * scale;
   double distance = 0.0;
   HullOutcome outcome = RunQhull(points, count, "qhull Q0", true, tolerance, distance);
   if (outcome == HullOutcome::kFailed) {

@@ -6,7 +6,7 @@
 ///
 /// Units: metres, radians, newtons; all points and directions in one frame (the object's).
 /// The functions are pure: no I/O, nothing printed (Qhull's messages go to a private buffer that is
-/// thrown away), deterministic for a given seed.
+/// thrown away, GLPK's are turned off), deterministic for a given seed.
 ///
 /// Wrenches. At a contact with point p, inward unit normal n and friction coefficient mu the
 /// friction cone is linearised into K = `num_cone_faces` unit forces
@@ -90,8 +90,11 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> GraspMatrix(const Contact& a, const Con
 /// the origin inside the hull). 0 for fewer than 7 columns or non-finite entries, and for a set
 /// that is flat to within 1e-10 (smallest over largest singular value of the centred columns).
 /// The origin counts as inside when every facet is farther than 1e-12 times the largest column
-/// norm. Dex-Net instead tests the origin with a min-norm QP against `wrench_norm_thresh` 0.001
-/// and takes each facet's min-norm point; for an interior origin both give the same minimum.
+/// norm. Before the hull, a linear programme (GLPK) looks for a direction u with w_j . u <= 0 for
+/// every column; one that checks out on the columns proves the value 0 without a hull (most noisy
+/// samples of a grasp end here). Dex-Net instead tests the origin with a min-norm QP against
+/// `wrench_norm_thresh` 0.001 and takes each facet's min-norm point; for an interior origin both
+/// give the same minimum.
 double FerrariCannyL1(const Eigen::Matrix<double, 6, Eigen::Dynamic>& wrenches);
 
 /// Ferrari-Canny L1 of the grasp on contacts `a`, `b`: FerrariCannyL1(GraspMatrix(...)).

@@ -302,6 +302,24 @@ TEST(GraspQualityTest, FerrariCannyOfTheCrossPolytopeIsOneOverRootSix) {
   EXPECT_EQ(FerrariCannyL1(shifted), 0.0);
 }
 
+// The vertices of a 6-cube: [-1, 1]^6 holds the origin at distance 1 from every facet;
+// [0, 2]^6 has it at a corner (on the boundary, 0), [0.5, 2.5]^6 outside (0). Zeros are proved by
+// a separating direction before any hull is built; the interior case still goes through the hull.
+TEST(GraspQualityTest, FerrariCannyOfHypercubesAroundOnAndOffTheOrigin) {
+  const auto hypercube = [](double lo, double hi) {
+    Eigen::Matrix<double, 6, Eigen::Dynamic> w(6, 64);
+    for (int j = 0; j < 64; ++j) {
+      for (int i = 0; i < 6; ++i) w(i, j) = (j >> i) & 1 ? hi : lo;
+    }
+    return w;
+  };
+  EXPECT_NEAR(FerrariCannyL1(hypercube(-1.0, 1.0)), 1.0, 1e-12);
+  EXPECT_NEAR(FerrariCannyL1(hypercube(-0.25, 1.75)), 0.25, 1e-12);
+  EXPECT_EQ(FerrariCannyL1(hypercube(0.0, 2.0)), 0.0);
+  EXPECT_EQ(FerrariCannyL1(hypercube(0.5, 2.5)), 0.0);
+  EXPECT_EQ(FerrariCannyL1(hypercube(-2.5, -0.5)), 0.0);
+}
+
 TEST(GraspQualityTest, FerrariCannyIsZeroWithoutFrictionOrOutsideTheCones) {
   QualityParams params;
   const auto [a, b] = CubeFaceCentres();
