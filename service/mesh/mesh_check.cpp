@@ -16,41 +16,14 @@
 #include <string>
 #include <utility>
 
+#include "service/mesh/mesh_topology_internal.h"
+
 namespace softgrasp::mesh {
 namespace {
 
-class UnionFind {
- public:
-  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
-  std::size_t Find(std::size_t x) {
-    while (parent_[x] != x) {
-      parent_[x] = parent_[parent_[x]];
-      x = parent_[x];
-    }
-    return x;
-  }
-  void Union(std::size_t a, std::size_t b) {
-    a = Find(a);
-    b = Find(b);
-    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
-  }
-
- private:
-  std::vector<std::size_t> parent_;
-};
-
-struct HalfEdge {
-  std::uint64_t key;  ///< undirected edge: min << 32 | max
-  int from;
-  int to;
-  int face;
-};
-
-std::uint64_t EdgeKey(int a, int b) {
-  const auto lo = static_cast<std::uint64_t>(std::min(a, b));
-  const auto hi = static_cast<std::uint64_t>(std::max(a, b));
-  return lo << 32 | hi;
-}
+using internal::EdgeKey;
+using internal::HalfEdge;
+using internal::UnionFind;
 
 std::string EdgeName(const HalfEdge& h) {
   return std::to_string(std::min(h.from, h.to)) + "-" + std::to_string(std::max(h.from, h.to));

@@ -16,7 +16,8 @@ import { call, describeError } from './api.js';
 import { angleDegrees, graspShape, isDrawable } from './grasp_geometry.js';
 import { meanStiffnessText, stiffnessForm, stiffnessModel, strategyChoices } from './stiffness.js';
 import {
-  clearError, fileSizeText, fixed, saveBlob, setDownload, showError, whileBusy,
+  acceptDroppedFile, clearError, fileSizeText, fixed, saveBlob, setDownload, showError,
+  whileBusy,
 } from './ui.js';
 
 /** Sent on `document` when the grasp picked in the table changes: detail {grasp, index, source}. */
@@ -319,23 +320,7 @@ export function mountGraspsPanel(root, info) {
   root.querySelector('#intrinsics-file').addEventListener('change', () => {
     document.dispatchEvent(new CustomEvent(DEPTH_CHANGED_EVENT));
   });
-  depthInput.addEventListener('change', describeFile);
-  drop.addEventListener('dragover', (event) => {
-    event.preventDefault();
-    event.dataTransfer.dropEffect = 'copy';
-    drop.classList.add('dragging');
-  });
-  drop.addEventListener('dragleave', () => drop.classList.remove('dragging'));
-  drop.addEventListener('drop', (event) => {
-    event.preventDefault();
-    drop.classList.remove('dragging');
-    const file = event.dataTransfer.files[0];
-    if (!file) return;
-    const list = new DataTransfer();
-    list.items.add(file);
-    depthInput.files = list.files;
-    describeFile();
-  });
+  acceptDroppedFile(drop, depthInput, describeFile);
 
   root.querySelector('#download-view').addEventListener('click', () => {
     canvas.toBlob((blob) => blob && saveBlob(blob, 'grasps-view.png'), 'image/png');

@@ -8,7 +8,8 @@ import {
   graspRows, lengthText, meshFileFormat, meshQuery, meshScale, meshSummary, poseRows,
 } from './mesh_grasps_model.js';
 import {
-  clearError, fileSizeText, numberField, saveBlob, setDownload, showError, whileBusy,
+  acceptDroppedFile, clearError, fileSizeText, numberField, saveBlob, setDownload, showError,
+  whileBusy,
 } from './ui.js';
 
 function readFields(root) {
@@ -113,23 +114,7 @@ export function mountMeshPanel(root, info) {
     root.querySelector('#mesh-file-name').textContent =
       file ? `${file.name} (${fileSizeText(file.size)})` : '';
   };
-  fileInput.addEventListener('change', describeFile);
-  drop.addEventListener('dragover', (event) => {
-    event.preventDefault();
-    event.dataTransfer.dropEffect = 'copy';
-    drop.classList.add('dragging');
-  });
-  drop.addEventListener('dragleave', () => drop.classList.remove('dragging'));
-  drop.addEventListener('drop', (event) => {
-    event.preventDefault();
-    drop.classList.remove('dragging');
-    const file = event.dataTransfer.files[0];
-    if (!file) return;
-    const list = new DataTransfer();
-    list.items.add(file);
-    fileInput.files = list.files;
-    describeFile();
-  });
+  acceptDroppedFile(drop, fileInput, describeFile);
 
   form.addEventListener('submit', async (event) => {
     event.preventDefault();

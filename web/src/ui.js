@@ -24,6 +24,30 @@ export async function whileBusy(form, progress, work) {
   }
 }
 
+/**
+ * Makes `drop` accept a dragged file for the file `input`: highlighted while a file hovers, the
+ * dropped file put into the input, then `onFile()` called (as the input's own change does).
+ */
+export function acceptDroppedFile(drop, input, onFile) {
+  input.addEventListener('change', onFile);
+  drop.addEventListener('dragover', (event) => {
+    event.preventDefault();
+    event.dataTransfer.dropEffect = 'copy';
+    drop.classList.add('dragging');
+  });
+  drop.addEventListener('dragleave', () => drop.classList.remove('dragging'));
+  drop.addEventListener('drop', (event) => {
+    event.preventDefault();
+    drop.classList.remove('dragging');
+    const file = event.dataTransfer.files[0];
+    if (!file) return;
+    const list = new DataTransfer();
+    list.items.add(file);
+    input.files = list.files;
+    onFile();
+  });
+}
+
 export function showError(box, message) {
   box.textContent = message;
   box.hidden = false;
