@@ -52,6 +52,10 @@ struct ServiceConfig {
   double min_depth_m = 0.0;
   int max_fractal_points = 200'000;   ///< POST /v1/fractals "points" cap (400 above it)
   int max_fractal_attempts = 20'000;  ///< IFS draws before a fractal request gives up (422)
+  int max_mesh_triangles = 200'000;   ///< POST /v1/meshes/grasps upload cap (413 above it)
+  /// POST /v1/meshes/grasps work cap: num_grasps x max(1, robust_samples) per request (400 above
+  /// it; 25,000 is about 2.5 s of one worker).
+  int max_mesh_quality_evaluations = 25'000;
   /// Folder of the built web page served at GET / and /assets/ (scripts/build.sh writes it to
   /// <build>/web). Empty: softgrasp-server uses DefaultWebRoot() next to its executable.
   std::string web_root;

@@ -155,7 +155,9 @@ http::Response Info(const config::ServiceConfig& config, bool robot_running, con
         {"header_timeout_ms", config.server.header_timeout_ms},
         {"body_timeout_ms", config.server.body_timeout_ms},
         {"max_fractal_points", config.max_fractal_points},
-        {"max_fractal_attempts", config.max_fractal_attempts}}},
+        {"max_fractal_attempts", config.max_fractal_attempts},
+        {"max_mesh_triangles", config.max_mesh_triangles},
+        {"max_mesh_quality_evaluations", config.max_mesh_quality_evaluations}}},
       {"models", ModelsJson(models)},
       {"strategies", Strategies(models)},
       {"default_strategy", engine::StrategyName(engine::DefaultStrategy(models))},
@@ -501,7 +503,7 @@ http::Response MeshGrasps(const http::Request& request, const config::ServiceCon
   mesh::MeshFileJob job;
   job.prepare.unit_scale_m = in.unit_scale_m;
   job.prepare.rescale_min_extent_m = in.rescale_min_extent_m;
-  job.prepare.max_triangles = kMaxUploadTriangles;
+  job.prepare.max_triangles = config.max_mesh_triangles;
   job.analysis = in.analysis;
   auto analysed = mesh::AnalyseMeshFile(in.mesh_bytes, job);
   if (!analysed.ok()) return ErrorToResponse(analysed.error());

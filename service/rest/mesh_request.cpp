@@ -1,5 +1,6 @@
 #include "service/rest/mesh_request.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -149,6 +150,15 @@ core::Result<MeshGraspRequest> ParseMeshGraspRequest(const http::Request& reques
   if (g.fingertip_depth_m >= g.finger_length_m) {
     return MakeError(ErrorCode::kInvalidArgument,
                      "fingertip_depth_mm must be less than finger_length_mm", "fingertip_depth_mm");
+  }
+  const long long evaluations =
+      static_cast<long long>(out.analysis.num_grasps) * std::max(1, out.analysis.robust_samples);
+  if (evaluations > config.max_mesh_quality_evaluations) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "num_grasps x robust_samples is " + std::to_string(evaluations) +
+                         ", more than this server's max_mesh_quality_evaluations (" +
+                         std::to_string(config.max_mesh_quality_evaluations) + ")",
+                     "robust_samples");
   }
   auto output = ResolveOutput(request, fields);
   if (!output.ok()) return output.error();

@@ -13,9 +13,6 @@
 
 namespace softgrasp::rest {
 
-/// Triangles an uploaded mesh may have (more: 413).
-inline constexpr int kMaxUploadTriangles = 200000;
-
 struct MeshGraspRequest {
   std::string mesh_bytes;
   /// Metres per file unit: "unit" = m (1, default) or mm (0.001).
@@ -37,6 +34,8 @@ struct MeshGraspRequest {
   int preview_size_px = 480;
 };
 
+/// Also refuses (400, field robust_samples) num_grasps x max(1, robust_samples) above the
+/// configuration's max_mesh_quality_evaluations; the triangle cap is applied when decoding.
 core::Result<MeshGraspRequest> ParseMeshGraspRequest(const http::Request& request,
                                                      const config::ServiceConfig& config);
 

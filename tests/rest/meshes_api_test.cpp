@@ -8,7 +8,6 @@
 #include <string>
 
 #include "service/mesh/mesh_io.h"
-#include "service/rest/mesh_request.h"
 #include "tests/rest/server_fixture.h"
 #include "tests/support/box_mesh.h"
 
@@ -21,7 +20,12 @@ using testing::RunningServer;
 
 class MeshesApiTest : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() { server_ = new RunningServer(); }
+  static void SetUpTestSuite() {
+    config::ServiceConfig config;
+    config.max_mesh_triangles = 1000;
+    config.max_mesh_quality_evaluations = 3000;
+    server_ = new RunningServer(config);
+  }
   static void TearDownTestSuite() {
     delete server_;
     server_ = nullptr;
@@ -154,9 +158,9 @@ TEST_F(MeshesApiTest, EveryBadMeshClassGetsItsStatusAndAMessage) {
                          "v 0 0 0\nv 0.05 0 0\nv 0.05 0.05 0\nv 0 0.05 0\n"
                          "f 1 2 3\nf 1 3 4\nf 1 3 2\nf 1 4 3\n");
   EXPECT_EQ(flat.status, 422) << flat.body;
-  // Too many triangles: 413.
+  // Too many triangles (this server takes 1,000): 413.
   std::string big = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
-  for (int i = 0; i <= kMaxUploadTriangles; ++i) big += "f 1 2 3\n";
+  for (int i = 0; i <= 1000; ++i) big += "f 1 2 3\n";
   const auto too_big = Post("", big);
   EXPECT_EQ(too_big.status, 413) << too_big.body.substr(0, 200);
   for (const auto* reply : {&text, &nan, &not_closed, &non_manifold, &flat, &too_big}) {
@@ -177,6 +181,10 @@ TEST_F(MeshesApiTest, BadRequestsNameTheField) {
   EXPECT_EQ(Error(range)["field"], "num_grasps");
   const auto fraction = Post("?robust_samples=2.5", cube);
   EXPECT_EQ(fraction.status, 400);
+  // More work than this server allows (3,000 evaluations): 400 naming robust_samples.
+  const auto too_much = Post("?num_grasps=200&robust_samples=20", cube);
+  EXPECT_EQ(too_much.status, 400);
+  EXPECT_EQ(Error(too_much)["field"], "robust_samples");
   const auto as_json = Post("", R"({"mesh": "cube"})", "", "application/json");
   EXPECT_EQ(as_json.status, 415);
   const auto empty = Post("", "");
