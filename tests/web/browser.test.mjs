@@ -10,7 +10,8 @@ import path from 'node:path';
 import { after, before, describe, it } from 'node:test';
 
 import {
-  artifactPath, checkPrerequisites, launchBrowser, paths, startServer, watchConsole,
+  artifactPath, checkPrerequisites, launchBrowser, paths, readCanvas, startServer,
+  watchConsole,
 } from './harness.mjs';
 
 const FRAME = path.join(paths.data, 'gqcnn', 'primesense', 'single_depth_0.npy');
@@ -134,23 +135,15 @@ async function findGrasps(page) {
 }
 
 /** Pixels of the 3D preview that differ from its background (the corner pixel). */
-function previewCoverage(page) {
-  return page.evaluate(() => {
-    const source = document.querySelector('#fractal-canvas');
-    const canvas = document.createElement('canvas');
-    canvas.width = source.width;
-    canvas.height = source.height;
-    const ctx = canvas.getContext('2d');
-    ctx.drawImage(source, 0, 0);
-    const { data } = ctx.getImageData(0, 0, canvas.width, canvas.height);
-    const bg = [data[0], data[1], data[2]];
-    let differing = 0;
-    for (let i = 0; i < data.length; i += 4) {
-      const d = Math.abs(data[i] - bg[0]) + Math.abs(data[i + 1] - bg[1]) + Math.abs(data[i + 2] - bg[2]);
-      if (d > 24) differing += 1;
-    }
-    return { differing, total: canvas.width * canvas.height, background: bg };
-  });
+async function previewCoverage(page) {
+  const { width, height, data } = await readCanvas(page, '#fractal-canvas');
+  const bg = [data[0], data[1], data[2]];
+  let differing = 0;
+  for (let i = 0; i < data.length; i += 4) {
+    const d = Math.abs(data[i] - bg[0]) + Math.abs(data[i + 1] - bg[1]) + Math.abs(data[i + 2] - bg[2]);
+    if (d > 24) differing += 1;
+  }
+  return { differing, total: width * height, background: bg };
 }
 
 /** Drops a file on an element as a person dragging it from the desktop would. */

@@ -158,6 +158,23 @@ export async function launchBrowser() {
   });
 }
 
+/**
+ * The RGBA pixels a canvas shows (drawn onto a fresh 2-D canvas, so WebGL canvases read too):
+ * { width, height, data } with data a plain array of width * height * 4 bytes.
+ */
+export function readCanvas(page, selector) {
+  return page.evaluate((sel) => {
+    const source = document.querySelector(sel);
+    const canvas = document.createElement('canvas');
+    canvas.width = source.width;
+    canvas.height = source.height;
+    const ctx = canvas.getContext('2d');
+    ctx.drawImage(source, 0, 0);
+    const { data } = ctx.getImageData(0, 0, canvas.width, canvas.height);
+    return { width: canvas.width, height: canvas.height, data: Array.from(data) };
+  }, selector);
+}
+
 /** Records console errors and uncaught exceptions of a page. */
 export function watchConsole(page) {
   const errors = [];

@@ -12,7 +12,7 @@ import path from 'node:path';
 import { after, before, describe, it } from 'node:test';
 
 import {
-  artifactPath, checkPrerequisites, launchBrowser, paths, startServer, watchConsole,
+  artifactPath, checkPrerequisites, launchBrowser, paths, readCanvas, startServer, watchConsole,
 } from './harness.mjs';
 
 const BAR_CLAMP = path.join(paths.data, 'meshes', 'dexnet_bar_clamp.obj');
@@ -157,33 +157,25 @@ function checkGeometryFitsFile(objText, result) {
 }
 
 /** How many pixels of the 3D view differ from its background, and where the magenta ones are. */
-function viewPixels(page) {
-  return page.evaluate(() => {
-    const source = document.querySelector('#mesh-canvas');
-    const canvas = document.createElement('canvas');
-    canvas.width = source.width;
-    canvas.height = source.height;
-    const ctx = canvas.getContext('2d');
-    ctx.drawImage(source, 0, 0);
-    const { data } = ctx.getImageData(0, 0, canvas.width, canvas.height);
-    const bg = [data[0], data[1], data[2]];
-    let differing = 0;
-    let magenta = 0;
-    let mx = 0;
-    let my = 0;
-    for (let i = 0; i < data.length; i += 4) {
-      const d = Math.abs(data[i] - bg[0]) + Math.abs(data[i + 1] - bg[1]) + Math.abs(data[i + 2] - bg[2]);
-      if (d > 24) differing += 1;
-      if (data[i] > 200 && data[i + 1] < 90 && data[i + 2] > 200) {
-        magenta += 1;
-        mx += (i / 4) % canvas.width;
-        my += Math.floor(i / 4 / canvas.width);
-      }
+async function viewPixels(page) {
+  const { width, height, data } = await readCanvas(page, '#mesh-canvas');
+  const bg = [data[0], data[1], data[2]];
+  let differing = 0;
+  let magenta = 0;
+  let mx = 0;
+  let my = 0;
+  for (let i = 0; i < data.length; i += 4) {
+    const d = Math.abs(data[i] - bg[0]) + Math.abs(data[i + 1] - bg[1]) + Math.abs(data[i + 2] - bg[2]);
+    if (d > 24) differing += 1;
+    if (data[i] > 200 && data[i + 1] < 90 && data[i + 2] > 200) {
+      magenta += 1;
+      mx += (i / 4) % width;
+      my += Math.floor(i / 4 / width);
     }
-    return {
-      differing, total: canvas.width * canvas.height, magenta, at: magenta ? [mx / magenta, my / magenta] : null,
-    };
-  });
+  }
+  return {
+    differing, total: width * height, magenta, at: magenta ? [mx / magenta, my / magenta] : null,
+  };
 }
 
 /** The cells of a table's body, without its first (radio) column. */
