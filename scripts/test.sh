@@ -21,7 +21,7 @@ SOFTGRASP_TARGETS="http_message_test http_parser_test http_response_writer_test
   mask_decode_replay mesh_decode_replay response_writer_replay codec_test json_codec_replay
   preprocess_test fge_test fge_stiffness_test
   raycast_test mesh_stable_poses_test mesh_grasp_quality_test mesh_antipodal_test
-  mesh_gripper_collision_test mesh_grasp_analysis_test" \
+  mesh_gripper_collision_test mesh_grasp_analysis_test gqcnn_dataset_format_test gqcnn_shard_replay" \
   bash "$root/scripts/build.sh" -DSOFTGRASP_SANITIZER=address,undefined -DSOFTGRASP_BUILD_BENCHMARKS=OFF
 # Tests of targets not built in this pass show up as *_NOT_BUILT: skip them.
 ctest --test-dir "$root/build-asan" -j "$(nproc)" --output-on-failure -L 'http|io|mesh|fuzz|core' \
