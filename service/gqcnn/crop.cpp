@@ -1,0 +1,158 @@
+#include "service/gqcnn/crop.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <vector>
+
+namespace softgrasp::gqcnn {
+namespace {
+
+constexpr int kHalfCrop = kCropSizePx / 2;
+
+/// The taps of one output index along one axis: grid offsets (source pixels from the grasp
+/// centre) and triangle weights.
+struct Taps {
+  int first = 0;  ///< grid offset of weights[0]
+  std::vector<float> weights;
+};
+
+/// Output index k is centred at (k - 16) * scale; taps are the integer offsets strictly within
+/// `scale` of it, weighted 1 - |d| / scale (a bilinear filter widened to the shrink factor).
+std::array<Taps, kCropSizePx> MakeTaps(double scale) {
+  std::array<Taps, kCropSizePx> taps;
+  for (int k = 0; k < kCropSizePx; ++k) {
+    const double c = (k - kHalfCrop) * scale;
+    const int lo = static_cast<int>(std::floor(c - scale)) + 1;
+    const int hi = static_cast<int>(std::ceil(c + scale)) - 1;
+    taps[k].first = lo;
+    for (int t = lo; t <= hi; ++t) {
+      const double w = 1.0 - std::abs(t - c) / scale;
+      taps[k].weights.push_back(static_cast<float>(std::max(w, 0.0)));
+    }
+  }
+  return taps;
+}
+
+}  // namespace
+
+void CropGrasp(const core::DepthImage& depth, const GraspImagePose& grasp, float* out,
+               int source_crop_px) {
+  if (!std::isfinite(grasp.center_u_px) || !std::isfinite(grasp.center_v_px) ||
+      !std::isfinite(grasp.angle_rad)) {
+    throw std::invalid_argument("CropGrasp: the grasp centre and angle must be finite");
+  }
+  if (source_crop_px < kCropSizePx || source_crop_px > 4096) {
+    throw std::invalid_argument("CropGrasp: source_crop_px must be in [32, 4096]");
+  }
+  const double scale = static_cast<double>(source_crop_px) / kCropSizePx;
+  // The taps depend on source_crop_px only; the planner calls this with one size, so one cached
+  // table per thread.
+  thread_local double cached_scale = -1.0;
+  thread_local std::array<Taps, kCropSizePx> taps;
+  if (cached_scale != scale) {
+    taps = MakeTaps(scale);
+    cached_scale = scale;
+  }
+  const int grid_lo = taps.front().first;
+  const int grid_hi = taps.back().first + static_cast<int>(taps.back().weights.size()) - 1;
+  const int n = grid_hi - grid_lo + 1;
+
+  // Nearest samples of the rotated grid: value (0 when missing) and validity (0 or 1).
+  thread_local std::vector<float> value;
+  thread_local std::vector<float> valid;
+  value.assign(static_cast<std::size_t>(n) * n, 0.0F);
+  valid.assign(static_cast<std::size_t>(n) * n, 0.0F);
+  const double cos_a = std::cos(grasp.angle_rad);
+  const double sin_a = std::sin(grasp.angle_rad);
+  const cv::Mat1f& image = depth.depth_m;
+  const int width = image.cols;
+  const int height = image.rows;
+  for (int y = 0; y < n; ++y) {
+    const double b = grid_lo + y;  // across the jaws: crop +v = image (-sin, cos)
+    double pu = grasp.center_u_px + grid_lo * cos_a - b * sin_a;
+    double pv = grasp.center_v_px + grid_lo * sin_a + b * cos_a;
+    float* value_row = value.data() + static_cast<std::size_t>(y) * n;
+    float* valid_row = valid.data() + static_cast<std::size_t>(y) * n;
+    for (int x = 0; x < n; ++x, pu += cos_a, pv += sin_a) {
+      const double fu = std::floor(pu + 0.5);
+      const double fv = std::floor(pv + 0.5);
+      if (fu < 0.0 || fv < 0.0 || fu >= width || fv >= height) continue;
+      const float z = image(static_cast<int>(fv), static_cast<int>(fu));
+      if (!(z > 0.0F) || !std::isfinite(z)) continue;
+      value_row[x] = z;
+      valid_row[x] = 1.0F;
+    }
+  }
+
+  // Separable filter over valid samples only: along the axis (columns) first...
+  thread_local std::vector<float> row_sum;
+  thread_local std::vector<float> row_weight;
+  row_sum.assign(static_cast<std::size_t>(n) * kCropSizePx, 0.0F);
+  row_weight.assign(static_cast<std::size_t>(n) * kCropSizePx, 0.0F);
+  for (int y = 0; y < n; ++y) {
+    const float* value_row = value.data() + static_cast<std::size_t>(y) * n;
+    const float* valid_row = valid.data() + static_cast<std::size_t>(y) * n;
+    for (int j = 0; j < kCropSizePx; ++j) {
+      const Taps& t = taps[j];
+      const int x0 = t.first - grid_lo;
+      float s = 0.0F;
+      float w = 0.0F;
+      for (std::size_t k = 0; k < t.weights.size(); ++k) {
+        s += t.weights[k] * value_row[x0 + static_cast<int>(k)];
+        w += t.weights[k] * valid_row[x0 + static_cast<int>(k)];
+      }
+      row_sum[static_cast<std::size_t>(y) * kCropSizePx + j] = s;
+      row_weight[static_cast<std::size_t>(y) * kCropSizePx + j] = w;
+    }
+  }
+  // ...then across it (rows).
+  for (int i = 0; i < kCropSizePx; ++i) {
+    const Taps& t = taps[i];
+    const int y0 = t.first - grid_lo;
+    for (int j = 0; j < kCropSizePx; ++j) {
+      double s = 0.0;
+      double w = 0.0;
+      for (std::size_t k = 0; k < t.weights.size(); ++k) {
+        const std::size_t at = static_cast<std::size_t>(y0 + static_cast<int>(k)) * kCropSizePx + j;
+        s += static_cast<double>(t.weights[k]) * row_sum[at];
+        w += static_cast<double>(t.weights[k]) * row_weight[at];
+      }
+      out[i * kCropSizePx + j] = w > 1e-6 ? static_cast<float>(s / w) : 0.0F;
+    }
+  }
+}
+
+std::optional<GraspImagePose> ProjectGrasp(const core::Camera& camera,
+                                           const Eigen::Vector3d& center_c,
+                                           const Eigen::Vector3d& axis_c, double opening_m) {
+  if (!center_c.allFinite() || !axis_c.allFinite() || !std::isfinite(opening_m) ||
+      !(opening_m > 0.0) || !(axis_c.norm() > 0.0)) {
+    return std::nullopt;
+  }
+  const Eigen::Vector3d half = 0.5 * opening_m * axis_c.normalized();
+  const Eigen::Vector3d a = center_c - half;
+  const Eigen::Vector3d b = center_c + half;
+  if (!(center_c.z() > 0.0) || !(a.z() > 0.0) || !(b.z() > 0.0)) return std::nullopt;
+  const auto project = [&](const Eigen::Vector3d& p) {
+    return Eigen::Vector2d(camera.cx + camera.fx * p.x() / p.z(),
+                           camera.cy + camera.fy * p.y() / p.z());
+  };
+  const Eigen::Vector2d pc = project(center_c);
+  const Eigen::Vector2d d = project(b) - project(a);
+  if (!(d.norm() > 1e-9)) return std::nullopt;
+  GraspImagePose pose;
+  pose.center_u_px = pc.x();
+  pose.center_v_px = pc.y();
+  double angle = std::atan2(d.y(), d.x());
+  if (angle < 0.0) angle += 2.0 * std::numbers::pi;
+  if (angle >= 2.0 * std::numbers::pi) angle = 0.0;
+  pose.angle_rad = angle;
+  pose.depth_m = center_c.z();
+  pose.width_px = d.norm();
+  return pose;
+}
+
+}  // namespace softgrasp::gqcnn
