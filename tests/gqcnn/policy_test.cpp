@@ -1,0 +1,190 @@
+#include "service/gqcnn/policy.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "service/core/preprocess.h"
+#include "service/gqcnn/dataset_format.h"
+
+namespace softgrasp::gqcnn {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kTableZ = 0.70;  // camera looks straight down at a table 0.70 m away
+
+core::Camera TestCamera() { return {525.0, 525.0, 159.5, 119.5, 320, 240}; }
+
+// A box of footprint long_m x short_m (long side along +u rotated by `yaw_rad`), `height_m` tall,
+// centred under pixel (cu, cv) on the table.
+core::DepthImage BoxScene(double cu, double cv, double long_m, double short_m, double height_m,
+                          double yaw_rad) {
+  const core::Camera camera = TestCamera();
+  core::DepthImage depth{cv::Mat1f(camera.height, camera.width, static_cast<float>(kTableZ))};
+  const double top = kTableZ - height_m;
+  const double px_per_m = camera.fx / top;
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const double du = (u - cu) / px_per_m;
+      const double dv = (v - cv) / px_per_m;
+      const double a = std::cos(yaw_rad) * du + std::sin(yaw_rad) * dv;
+      const double b = -std::sin(yaw_rad) * du + std::cos(yaw_rad) * dv;
+      if (std::fabs(a) <= long_m / 2 && std::fabs(b) <= short_m / 2) {
+        depth.depth_m(v, u) = static_cast<float>(top);
+      }
+    }
+  }
+  return depth;
+}
+
+core::Scene Prepared(const core::DepthImage& depth) {
+  auto scene = core::Preprocess(depth, TestCamera());
+  EXPECT_TRUE(scene.ok());
+  return scene.value();
+}
+
+// The fraction of the crop's centre row (along the grasp axis) that is nearer than the table:
+// across a 3 cm side of a box the jaws see a narrow band, along its 9 cm side a long one.
+double CentreRowObjectFraction(const float* crop) {
+  int object = 0;
+  const int row = kCropSizePx / 2;
+  for (int c = 0; c < kCropSizePx; ++c) {
+    if (crop[row * kCropSizePx + c] > 0.0F && crop[row * kCropSizePx + c] < kTableZ - 0.01)
+      ++object;
+  }
+  return static_cast<double>(object) / kCropSizePx;
+}
+
+// A stand-in GQ-CNN with a known optimum: grasps whose centre row crosses a narrow band of
+// object, with the centre on the object and the grasp depth 2 cm below the top, score highest.
+QualityFunction NarrowBandQuality(int* calls = nullptr) {
+  return [calls](std::span<const float> crops, std::span<const float> depths) {
+    if (calls) ++*calls;
+    std::vector<float> out(depths.size());
+    for (std::size_t i = 0; i < depths.size(); ++i) {
+      const float* crop = crops.data() + i * kCropPixels;
+      const float centre = crop[(kCropSizePx / 2) * kCropSizePx + kCropSizePx / 2];
+      const double band = CentreRowObjectFraction(crop);
+      const double depth_error = std::fabs(depths[i] - (centre + 0.02));
+      const double q = (centre > 0.0F && centre < kTableZ - 0.01 ? 1.0 : 0.0) *
+                       std::exp(-std::pow((band - 0.25) / 0.1, 2)) * std::exp(-depth_error / 0.01);
+      out[i] = static_cast<float>(q);
+    }
+    return out;
+  };
+}
+
+TEST(GqcnnPolicyTest, GraspsABoxAcrossItsShortSideAtTheRightDepth) {
+  const double yaw = 0.6;
+  const core::Scene scene = Prepared(BoxScene(160, 120, 0.09, 0.03, 0.05, yaw));
+  PolicyParams params;
+  params.seed = 3;
+  auto plan = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, params, NarrowBandQuality());
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  ASSERT_FALSE(plan.value().grasps.empty());
+  EXPECT_GT(plan.value().antipodal_pairs, 0);
+  EXPECT_EQ(plan.value().evaluated,
+            params.seed_samples + params.cem_iterations * params.cem_samples);
+  const PolicyGrasp& best = plan.value().grasps.front();
+  // The short side is across yaw + 90 degrees.
+  double across = std::fmod(yaw + kPi / 2, kPi);
+  double error = std::fabs(best.grasp.angle_rad - across);
+  error = std::min(error, kPi - error);
+  EXPECT_LT(error, 12.0 * kPi / 180.0) << best.grasp.angle_rad;
+  EXPECT_NEAR(best.grasp.center_u_px, 160, 20);
+  EXPECT_NEAR(best.grasp.center_v_px, 120, 20);
+  EXPECT_GT(best.quality, 0.7F);
+  EXPECT_FLOAT_EQ(static_cast<float>(best.grasp.score), best.quality);
+  // Between the box top (0.65 m) and the table, as the quality function prefers.
+  EXPECT_NEAR(best.image_pose.depth_m, 0.67, 0.006);
+  EXPECT_NEAR(best.grasp.p_CG_m[2], best.image_pose.depth_m, 1e-12);
+  EXPECT_NEAR(best.grasp.grasp_height_m, kTableZ - best.image_pose.depth_m, 0.002);
+  EXPECT_NEAR(best.grasp.contact_height_m, 0.05, 0.002);
+  // Back-projection of the centre pixel at the grasp depth.
+  EXPECT_NEAR(best.grasp.p_CG_m[0], (best.grasp.center_u_px - 159.5) / 525.0 * best.grasp.p_CG_m[2],
+              1e-9);
+  // Ranked best first, no near-duplicates.
+  for (std::size_t i = 1; i < plan.value().grasps.size(); ++i) {
+    EXPECT_LE(plan.value().grasps[i].quality, plan.value().grasps[i - 1].quality);
+  }
+}
+
+TEST(GqcnnPolicyTest, CemImprovesOnTheSeedCandidates) {
+  const core::Scene scene = Prepared(BoxScene(150, 110, 0.09, 0.03, 0.05, 1.1));
+  PolicyParams seeds_only;
+  seeds_only.seed = 5;
+  seeds_only.seed_samples = 40;
+  seeds_only.cem_iterations = 0;
+  PolicyParams refined = seeds_only;
+  refined.cem_iterations = 3;
+  auto a = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, seeds_only, NarrowBandQuality());
+  auto b = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, refined, NarrowBandQuality());
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_FALSE(a.value().grasps.empty());
+  EXPECT_GT(b.value().grasps.front().quality, a.value().grasps.front().quality);
+}
+
+TEST(GqcnnPolicyTest, SameSeedSamePlan) {
+  const core::Scene scene = Prepared(BoxScene(170, 115, 0.08, 0.035, 0.04, 0.2));
+  PolicyParams params;
+  params.seed = 9;
+  auto a = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, params, NarrowBandQuality());
+  auto b = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, params, NarrowBandQuality());
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a.value().grasps.size(), b.value().grasps.size());
+  for (std::size_t i = 0; i < a.value().grasps.size(); ++i) {
+    EXPECT_EQ(a.value().grasps[i].grasp.center_u_px, b.value().grasps[i].grasp.center_u_px);
+    EXPECT_EQ(a.value().grasps[i].image_pose.depth_m, b.value().grasps[i].image_pose.depth_m);
+  }
+}
+
+TEST(GqcnnPolicyTest, ContactsOnlyWhereAllowedAndNothingOnAnEmptyTable) {
+  core::Scene scene = Prepared(BoxScene(160, 120, 0.09, 0.03, 0.05, 0.0));
+  scene.contact_allowed = cv::Mat1b(scene.depth_filled_m.size(), 255);
+  scene.contact_allowed(cv::Rect(100, 60, 120, 120)).setTo(0);  // the box's surroundings
+  auto masked = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, {}, NarrowBandQuality());
+  ASSERT_TRUE(masked.ok());
+  EXPECT_TRUE(masked.value().grasps.empty());
+  EXPECT_EQ(masked.value().antipodal_pairs, 0);
+
+  core::DepthImage flat = BoxScene(160, 120, 0.0, 0.0, 0.0, 0.0);
+  int calls = 0;
+  auto empty =
+      PlanGqcnnGrasps(Prepared(flat), TestCamera(), core::Gripper{}, {}, NarrowBandQuality(&calls));
+  ASSERT_TRUE(empty.ok());
+  EXPECT_TRUE(empty.value().grasps.empty());
+  EXPECT_EQ(calls, 0);
+}
+
+TEST(GqcnnPolicyTest, TooWideForTheStrokeGivesNoPairs) {
+  // 8 cm across its short side: wider than the 5 cm stroke every way.
+  const core::Scene scene = Prepared(BoxScene(160, 120, 0.12, 0.08, 0.05, 0.0));
+  auto plan = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, {}, NarrowBandQuality());
+  ASSERT_TRUE(plan.ok());
+  EXPECT_EQ(plan.value().antipodal_pairs, 0);
+}
+
+TEST(GqcnnPolicyTest, RefusesBadParametersAndBadQualityFunctions) {
+  const core::Scene scene = Prepared(BoxScene(160, 120, 0.09, 0.03, 0.05, 0.0));
+  PolicyParams params;
+  params.seed_samples = 0;
+  EXPECT_EQ(PlanGqcnnGrasps(scene, TestCamera(), {}, params, NarrowBandQuality()).error().field,
+            "seed_samples");
+  params = {};
+  params.cem_elite_fraction = 1.5;
+  EXPECT_EQ(ValidatePolicyParams(params)->field, "cem_elite_fraction");
+  auto wrong_count = [](std::span<const float>, std::span<const float> depths) {
+    return std::vector<float>(depths.size() + 1, 0.5F);
+  };
+  auto result = PlanGqcnnGrasps(scene, TestCamera(), {}, {}, wrong_count);
+  ASSERT_FALSE(result.ok());
+  EXPECT_EQ(result.error().code, core::ErrorCode::kInternal);
+  auto nan = [](std::span<const float>, std::span<const float> depths) {
+    return std::vector<float>(depths.size(), std::nanf(""));
+  };
+  EXPECT_EQ(PlanGqcnnGrasps(scene, TestCamera(), {}, {}, nan).error().code,
+            core::ErrorCode::kInternal);
+}
+
+}  // namespace
+}  // namespace softgrasp::gqcnn
