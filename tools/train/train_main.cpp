@@ -1,4 +1,5 @@
-// softgrasp-train: trains and evaluates the pix2stiffness model (docs/stiffness.md).
+// softgrasp-train: trains and evaluates the pix2stiffness model (docs/stiffness.md), the
+// segmentation model (docs/segmentation.md) and the GQ-CNN (docs/gqcnn.md).
 //   softgrasp-train stiffness --data DIR --out MODEL [--steps N] [--seed S] [--batch B]
 //                             [--resume] [--checkpoint-every N] [--lambda L] [--lr LR]
 //                             [--object-weight W]
@@ -22,6 +23,7 @@
 #include "sim/progress.h"
 #include "tools/train/evaluate.h"
 #include "tools/train/evaluate_tasks.h"
+#include "tools/train/gqcnn_cli.h"
 #include "tools/train/segmentation_cli.h"
 
 namespace {
@@ -142,8 +144,11 @@ int main(int argc, char** argv) {
   if (command == "evaluate-segmentation") {
     return softgrasp::tools::RunSegmentationEvaluate(std::move(args));
   }
+  if (command == "gqcnn") return softgrasp::tools::RunGqcnnTrain(std::move(args));
+  if (command == "gqcnn-eval") return softgrasp::tools::RunGqcnnEvaluate(std::move(args));
+  if (command == "gqcnn-bench") return softgrasp::tools::RunGqcnnBench(std::move(args));
   if (command == "--help" || command == "-h") {
-    std::cout << kUsage << softgrasp::tools::kSegmentationUsage;
+    std::cout << kUsage << softgrasp::tools::kSegmentationUsage << softgrasp::tools::kGqcnnUsage;
     return 0;
   }
   return Fail("unknown command " + command + "\n" + kUsage);

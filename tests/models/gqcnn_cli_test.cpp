@@ -1,0 +1,147 @@
+// `softgrasp-train gqcnn` and `gqcnn-eval` as processes (what CI runs to prove the pipeline):
+// a few training steps on a synthetic dataset, its files and card, resume, evaluation on other
+// objects with intervals and baselines, and command lines that exit 2 naming the problem.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "service/models/gqcnn_model.h"
+#include "tests/models/gqcnn_synthetic.h"
+#include "tests/support/temp_dir.h"
+
+namespace softgrasp::models {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct CliRun {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string Slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+class GqcnnCliTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = new testing::TempDir("gqcnn-cli");
+    testing::WriteSyntheticGqcnnDataset(*root_ / "train", {});
+    testing::SyntheticGqcnnParams held_out;
+    held_out.objects = 8;
+    held_out.seed = 99;
+    held_out.first_object_width_seed = 5;
+    testing::WriteSyntheticGqcnnDataset(*root_ / "test", held_out);
+  }
+  static void TearDownTestSuite() { delete root_; }
+
+  static CliRun Run(const std::string& args) {
+    const fs::path out = *root_ / "stdout.txt", err = *root_ / "stderr.txt";
+    const std::string cmd = std::string(SOFTGRASP_TRAIN_EXE) + " " + args + " > " + out.string() +
+                            " 2> " + err.string() + " < /dev/null";
+    const int status = std::system(cmd.c_str());
+    CliRun r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = Slurp(out);
+    r.err = Slurp(err);
+    return r;
+  }
+  static std::string Dir(const char* name) { return (*root_ / name).string(); }
+  static testing::TempDir* root_;
+};
+testing::TempDir* GqcnnCliTest::root_ = nullptr;
+
+TEST_F(GqcnnCliTest, TrainsAFewStepsResumesAndEvaluates) {
+  const fs::path model = *root_ / "run" / "gqcnn.pt";
+  const std::string common = "gqcnn --data " + Dir("train") + " --out " + model.string() +
+                             " --batch 16 --seed 3 --eval-every 10 --threads 1";
+  const CliRun first = Run(common + " --steps 20");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_NE(first.out.find("loaded 1200 grasps"), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find("trained steps 0 -> 20 of 20"), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find("val loss"), std::string::npos) << first.out;
+  for (const char* suffix : {".pt", ".json", ".ckpt", "_loss.csv", "_loss.png", "_accuracy.png"}) {
+    EXPECT_TRUE(fs::exists(*root_ / "run" / (std::string("gqcnn") + suffix))) << suffix;
+  }
+  const json card = json::parse(Slurp(*root_ / "run" / "gqcnn.json"));
+  EXPECT_EQ(card.at("training").at("steps_done").get<int>() % 10, 0);
+  EXPECT_EQ(card.at("data").at("dirs").at(0), Dir("train"));
+  EXPECT_GT(card.at("model_file_bytes").get<std::int64_t>(), 1000);
+  // 21 lines: header and steps 1..20.
+  const std::string csv = Slurp(*root_ / "run" / "gqcnn_loss.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 21);
+
+  // --resume extends the run from its checkpoint; a checkpoint of other options is refused.
+  const CliRun again = Run(common + " --steps 30 --resume");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_NE(again.out.find("trained steps 20 -> 30 of 30"), std::string::npos) << again.out;
+  const std::string csv30 = Slurp(*root_ / "run" / "gqcnn_loss.csv");
+  EXPECT_EQ(std::count(csv30.begin(), csv30.end(), '\n'), 31);
+  const CliRun mismatched = Run(common + " --steps 40 --lr 0.5 --resume");
+  EXPECT_EQ(mismatched.exit_code, 2);
+  EXPECT_NE(mismatched.err.find("other options"), std::string::npos) << mismatched.err;
+
+  const fs::path report = *root_ / "eval" / "report.json";
+  const CliRun eval = Run("gqcnn-eval --model " + model.string() + " --data " + Dir("test") +
+                          " --json " + report.string() + " --resamples 200 --threads 1");
+  ASSERT_EQ(eval.exit_code, 0) << eval.err;
+  const json j = json::parse(Slurp(report));
+  EXPECT_EQ(json::parse(eval.out), j);
+  const json& g = j.at("gqcnn");
+  EXPECT_EQ(g.at("grasps").get<int>(), 8 * 10 * 4);
+  EXPECT_EQ(g.at("objects").get<int>(), 8);
+  EXPECT_EQ(g.at("images").get<int>(), 80);
+  for (const char* key : {"accuracy", "balanced_accuracy", "top1_precision"}) {
+    const double v = g.at(key).get<double>();
+    EXPECT_GE(v, 0.0) << key;
+    EXPECT_LE(v, 1.0) << key;
+    ASSERT_EQ(g.at(std::string(key) + "_ci95").size(), 2u);
+  }
+  const json& majority = j.at("baselines").at("majority_class").at("metrics");
+  EXPECT_DOUBLE_EQ(majority.at("balanced_accuracy").get<double>(), 0.5);  // all one class
+  EXPECT_TRUE(j.at("baselines").at("logistic_hand_features").contains("metrics"));
+  EXPECT_FALSE(j.contains("warning"));
+
+  // Evaluating on the training data says so.
+  const CliRun leak =
+      Run("gqcnn-eval --model " + model.string() + " --data " + Dir("train") + " --resamples 20");
+  ASSERT_EQ(leak.exit_code, 0) << leak.err;
+  EXPECT_TRUE(json::parse(leak.out).contains("warning"));
+}
+
+TEST_F(GqcnnCliTest, BadCommandLinesExitTwoNamingTheProblem) {
+  const std::string model = (*root_ / "bad" / "m.pt").string();
+  struct Case {
+    std::string args, expected;
+  };
+  const Case cases[] = {
+      {"gqcnn --out " + model, "--data DIR is required"},
+      {"gqcnn --data " + Dir("train"), "--out MODEL is required"},
+      {"gqcnn --data " + Dir("train") + " --out " + model + " --steps 5 --epochs 2", "not both"},
+      {"gqcnn --data " + Dir("train") + " --out " + model + " --optimizer rmsprop",
+       "--optimizer must be one of adam, sgd"},
+      {"gqcnn --data " + Dir("nowhere") + " --out " + model + " --steps 5", "index"},
+      {"gqcnn --data " + Dir("train") + " --out " + model + " --bogus", "unknown argument"},
+      {"gqcnn-eval --model " + model + " --data " + Dir("test"), "no GQ-CNN model file"},
+      {"gqcnn-eval --model " + Dir("train") + "/index.json --data " + Dir("test"),
+       "cannot read GQ-CNN model"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.args);
+    const CliRun r = Run(c.args);
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.err.find(c.expected), std::string::npos) << r.err;
+  }
+}
+
+}  // namespace
+}  // namespace softgrasp::models

@@ -1,0 +1,339 @@
+#include "tools/train/gqcnn_cli.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <random>
+
+#include "service/cli/args.h"
+#include "service/cli/files.h"
+#include "service/models/gqcnn_model.h"
+#include "service/models/gqcnn_network.h"
+#include "service/models/gqcnn_trainer.h"
+#include "service/models/network.h"
+#include "service/models/stiffness_model.h"
+#include "service/models/trainer.h"
+#include "sim/progress.h"
+#include "tools/train/gqcnn_metrics.h"
+
+namespace softgrasp::tools {
+
+const char* const kGqcnnUsage =
+    "       softgrasp-train gqcnn --data DIR [--data DIR2 ...] --out MODEL.pt\n"
+    "                             [--steps N | --epochs E] [--batch B] [--lr LR]\n"
+    "                             [--optimizer adam|sgd] [--balance weight|sample|none]\n"
+    "                             [--seed S] [--resume] [--eval-every N] [--checkpoint-every N]\n"
+    "                             [--validation-fraction F] [--conv1-channels C]\n"
+    "                             [--conv2-channels C] [--fc-units U] [--no-augmentation]\n"
+    "                             [--threads T]\n"
+    "  Trains the GQ-CNN on softgrasp-sim gqcnn-dataset directories (object-wise 80/20 split,\n"
+    "  Dex-Net 2.0 augmentations). Writes MODEL.pt (best validation balanced accuracy), its card\n"
+    "  MODEL.json, MODEL.ckpt (resumable), MODEL_loss.csv/.png and MODEL_accuracy.png.\n"
+    "       softgrasp-train gqcnn-eval --model MODEL.pt --data DIR [--data DIR2 ...]\n"
+    "                                  [--json OUT] [--threshold P] [--resamples N] [--threads T]\n"
+    "  Accuracy, balanced accuracy, precision, recall and precision of the top-ranked grasp per\n"
+    "  image, with 95 % intervals resampling objects, for the model and two baselines (majority\n"
+    "  class; logistic regression on two hand features fitted on the model's training split).\n"
+    "       softgrasp-train gqcnn-bench [--model MODEL.pt] [--conv1-channels C]\n"
+    "                                   [--conv2-channels C] [--fc-units U] [--threads T]\n"
+    "  Measures Predict for 250 and 1000 crops and training throughput (crops/s).\n";
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+int Fail(const std::string& message) {
+  std::cerr << "softgrasp-train: " << message << "\n";
+  return 2;
+}
+
+int FailError(const core::Error& e) {
+  return Fail(e.message + (e.field.empty() ? "" : " [" + e.field + "]"));
+}
+
+void ReadNetworkOptions(cli::Args& args, models::GqcnnNetConfig* c) {
+  args.Int("--conv1-channels", 1, 1024, &c->conv1_channels);
+  args.Int("--conv2-channels", 1, 1024, &c->conv2_channels);
+  args.Int("--conv1-1-kernel", 1, 15, &c->conv1_1_kernel);
+  args.Int("--conv1-2-kernel", 1, 15, &c->conv1_2_kernel);
+  int fc = 0;
+  if (args.Int("--fc-units", 1, 1024, &fc)) c->fc3_units = c->fc4_units = fc;
+  if (args.Flag("--no-lrn")) c->local_response_norm = false;
+  if ((c->conv1_1_kernel % 2) == 0 || (c->conv1_2_kernel % 2) == 0) {
+    args.Fail("--conv1-1-kernel and --conv1-2-kernel must be odd", "--conv1-1-kernel");
+  }
+}
+
+core::Result<models::GqcnnSet> Load(const std::vector<std::string>& dirs) {
+  std::vector<fs::path> paths(dirs.begin(), dirs.end());
+  std::unique_ptr<sim::ProgressBar> bar;
+  auto set = models::LoadGqcnnSet(paths, [&](int done, int total) {
+    if (!bar) bar = std::make_unique<sim::ProgressBar>("loading shards", total);
+    bar->Update(done);
+  });
+  bar.reset();
+  return set;
+}
+
+}  // namespace
+
+int RunGqcnnTrain(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
+  models::GqcnnTrainOptions o;
+  std::string out;
+  int threads = 2;
+  const std::vector<std::string> data = args.All("--data");
+  args.Required("--out", "MODEL", &out);
+  const bool has_steps = args.Int("--steps", 1, 100000000, &o.steps);
+  const bool has_epochs = args.Number("--epochs", cli::Bounds::Above(0), &o.epochs);
+  args.Int("--batch", 1, 4096, &o.batch);
+  args.Number("--lr", cli::Bounds::Above(0), &o.learning_rate);
+  args.Choice<models::GqcnnOptimizer>(
+      "--optimizer",
+      {{"adam", models::GqcnnOptimizer::kAdam}, {"sgd", models::GqcnnOptimizer::kSgd}},
+      &o.optimizer);
+  args.Choice<models::GqcnnBalance>("--balance",
+                                    {{"weight", models::GqcnnBalance::kWeightedLoss},
+                                     {"sample", models::GqcnnBalance::kBalancedSampling},
+                                     {"none", models::GqcnnBalance::kNone}},
+                                    &o.balance);
+  args.Int("--seed", 0, cli::kNoLimit, &o.seed);
+  args.Int("--eval-every", 1, 100000000, &o.eval_every);
+  args.Int("--checkpoint-every", 1, 100000000, &o.checkpoint_every);
+  args.Number("--validation-fraction", cli::Bounds{0, 1, true, true}, &o.validation_fraction);
+  ReadNetworkOptions(args, &o.network);
+  if (args.Flag("--no-augmentation")) {
+    o.augmentation.multiplicative = false;
+    o.augmentation.gp_rate = 0;
+    o.augmentation.symmetries = false;
+  }
+  args.Int("--threads", 1, 256, &threads);
+  o.resume = args.Flag("--resume");
+  if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
+  if (has_steps && has_epochs) args.Fail("give --steps or --epochs, not both", "--steps");
+  if (const auto error = args.Finish()) return Fail(error->message);
+  if (has_steps) o.epochs = 0;
+  o.out = out;
+
+  models::SetTorchThreads(threads);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto set = Load(data);
+  if (!set.ok()) return FailError(set.error());
+  std::cout << "loaded " << set.value().size() << " grasps (" << set.value().positives
+            << " positive), " << set.value().images() << " images, "
+            << set.value().object_names.size() << " objects in "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()
+            << " s; threads " << threads << std::endl;
+
+  const bool tty = isatty(STDERR_FILENO) != 0;
+  std::unique_ptr<sim::ProgressBar> bar;
+  const auto t_train = std::chrono::steady_clock::now();
+  int first_step = -1;
+  auto report = models::TrainGqcnn(
+      o, set.value(),
+      [&](const models::GqcnnStepRecord& r, const models::GqcnnValidation* v, int total) {
+        if (!bar) bar = std::make_unique<sim::ProgressBar>("training", total);
+        if (first_step < 0) first_step = r.step;
+        bar->Update(r.step);
+        const double s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t_train).count();
+        const double per_step = s / (r.step - first_step + 1);
+        if ((!tty && (r.step % 100 == 0 || r.step == total)) || v != nullptr) {
+          std::printf("step %d/%d  loss %.4f  acc %.3f  lr %.2e  %.0f crops/s  eta %.1f min",
+                      r.step, total, r.loss, r.accuracy, r.learning_rate, o.batch / per_step,
+                      per_step * (total - r.step) / 60.0);
+          if (v != nullptr) {
+            std::printf("  | val loss %.4f  acc %.3f  bal.acc %.3f  prec %.3f  rec %.3f", v->loss,
+                        v->accuracy, v->balanced_accuracy, v->precision, v->recall);
+          }
+          std::printf("\n");
+          std::fflush(stdout);
+        }
+      });
+  bar.reset();
+  if (!report.ok()) return FailError(report.error());
+  const auto& rep = report.value();
+  std::cout << "trained steps " << rep.start_step << " -> " << rep.end_step << " of "
+            << rep.total_steps << " in " << rep.seconds << " s (" << rep.crops_per_second
+            << " crops/s); best validation balanced accuracy " << rep.best.balanced_accuracy
+            << " at step " << rep.best.step << "; model " << o.out.string() << ", card "
+            << models::GqcnnCardPath(o.out).string() << ", checkpoint "
+            << models::CheckpointPath(o.out).string() << ", curves "
+            << models::LossPngPath(o.out).string() << std::endl;
+  return 0;
+}
+
+int RunGqcnnEvaluate(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
+  std::string model_path, json_out;
+  int threads = 2, resamples = 1000;
+  double threshold = 0.5;
+  std::uint64_t seed = 1;
+  args.Required("--model", "MODEL", &model_path);
+  const std::vector<std::string> data = args.All("--data");
+  args.Text("--json", &json_out);
+  args.Number("--threshold", cli::Bounds::Closed(0, 1), &threshold);
+  args.Int("--resamples", 10, 1000000, &resamples);
+  args.Int("--seed", 0, cli::kNoLimit, &seed);
+  args.Int("--threads", 1, 256, &threads);
+  if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
+  if (const auto error = args.Finish()) return Fail(error->message);
+
+  models::SetTorchThreads(threads);
+  auto model = models::GqcnnModel::Load(model_path);
+  if (!model.ok()) return FailError(model.error());
+  const json& card = model.value().Card();
+  auto baseline = models::LogisticBaseline::FromJson(card.value("baseline", json::object()));
+  if (!baseline.ok()) return FailError(baseline.error());
+  auto set = Load(data);
+  if (!set.ok()) return FailError(set.error());
+  const models::GqcnnSet& s = set.value();
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<float> p = model.value().Predict(s.crops_depth_m, s.grasp_depths_m);
+  const double predict_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::vector<float> logistic(s.size()), majority(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    logistic[i] = static_cast<float>(baseline.value().Predict(
+        models::GqcnnHandFeatures(s.crop(i), s.grasp_depths_m[i], s.width_px[i])));
+    majority[i] = static_cast<float>(baseline.value().train_positive_rate);
+  }
+  auto score = [&](const std::vector<float>& probabilities) {
+    GqcnnScored scored{s.labels, probabilities, s.object_keys, s.image_keys};
+    std::vector<GqcnnObjectCounts> per_object;
+    const GqcnnMetrics m = ComputeGqcnnMetrics(scored, threshold, &per_object);
+    return GqcnnMetricsJson(m, BootstrapGqcnnMetrics(per_object, resamples, seed));
+  };
+  json train_dirs =
+      card.contains("data") ? card["data"].value("dirs", json::array()) : json::array();
+  json overlap = json::array();
+  for (const std::string& d : data) {
+    std::error_code ec;
+    for (const auto& t : train_dirs) {
+      if (t.is_string() && fs::equivalent(fs::path(d), fs::path(t.get<std::string>()), ec)) {
+        overlap.push_back(d);
+      }
+    }
+  }
+  json result = {
+      {"model", model_path},
+      {"model_description", model.value().description()},
+      {"trained_on", train_dirs},
+      {"data", data},
+      {"threshold", threshold},
+      {"bootstrap",
+       {{"unit", "object"}, {"resamples", resamples}, {"seed", seed}, {"level", 0.95}}},
+      {"predict_seconds", predict_s},
+      {"predict_crops_per_second", predict_s > 0 ? static_cast<double>(s.size()) / predict_s : 0.0},
+      {"gqcnn", score(p)},
+      {"baselines",
+       {{"majority_class",
+         {{"description",
+           "constant P = the training split's positive rate (" +
+               std::to_string(baseline.value().train_positive_rate) +
+               "): predicts the majority class; its top-ranked grasp is the image's first"},
+          {"metrics", score(majority)}}},
+        {"logistic_hand_features",
+         {{"description",
+           "logistic regression on (shallower jaw-tip depth - centre depth, grasp "
+           "depth - centre depth), balanced class weights, fitted on the model's "
+           "training split"},
+          {"model", baseline.value().ToJson()},
+          {"metrics", score(logistic)}}}}}};
+  if (!overlap.empty()) {
+    result["warning"] = "the evaluation data includes the model's training data";
+    result["overlap"] = overlap;
+  }
+  const std::string text = result.dump(2) + "\n";
+  if (!json_out.empty()) {
+    if (auto error = cli::WriteFile(json_out, text, cli::Parents::kCreate))
+      return FailError(*error);
+  }
+  std::cout << text;
+  return 0;
+}
+
+int RunGqcnnBench(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
+  std::string model_path;
+  int threads = 2, repeats = 5, batch = 64;
+  models::GqcnnNetConfig config;
+  args.Text("--model", &model_path);
+  ReadNetworkOptions(args, &config);
+  args.Int("--threads", 1, 256, &threads);
+  args.Int("--repeats", 1, 1000, &repeats);
+  args.Int("--batch", 1, 4096, &batch);
+  if (const auto error = args.Finish()) return Fail(error->message);
+  models::SetTorchThreads(threads);
+  const fs::path tmp =
+      fs::temp_directory_path() / ("gqcnn-bench-" + std::to_string(getpid()) + ".pt");
+  if (!model_path.empty()) {
+    auto loaded = models::LoadGqcnnNet(model_path);
+    if (!loaded.ok()) return FailError(loaded.error());
+    config = loaded.value().config;
+  } else {
+    models::GqcnnNet net(config);
+    models::InitGqcnnWeights(net);
+    models::SaveGqcnnNet(tmp, net, config, {0.6, 0.05, 0.6, 0.05}, json::object());
+    model_path = tmp.string();
+  }
+  auto model = models::GqcnnModel::Load(model_path);
+  if (model_path == tmp.string()) fs::remove(tmp);
+  if (!model.ok()) return FailError(model.error());
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<float> depth(0.55f, 0.7f);
+  json result = {{"model", model.value().description()}, {"threads", threads}};
+  for (const int n : {1, 250, 1000}) {
+    std::vector<float> crops(static_cast<std::size_t>(n) * 1024),
+        depths(static_cast<std::size_t>(n));
+    for (float& v : crops) v = depth(rng);
+    for (float& v : depths) v = depth(rng);
+    (void)model.value().Predict(crops, depths);  // warm-up
+    std::vector<double> ms;
+    for (int r = 0; r < repeats; ++r) {
+      const auto t0 = std::chrono::steady_clock::now();
+      (void)model.value().Predict(crops, depths);
+      ms.push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+    std::sort(ms.begin(), ms.end());
+    result["predict_ms_median"][std::to_string(n)] = ms[ms.size() / 2];
+  }
+  // Training throughput: forward, weighted cross-entropy, backward and an Adam step on random
+  // batches (augmentation and batch assembly excluded; `softgrasp-train gqcnn` prints the whole).
+  {
+    const models::GqcnnNetConfig c = config;
+    models::GqcnnNet net(c);
+    models::InitGqcnnWeights(net);
+    torch::optim::Adam opt(net->parameters(), torch::optim::AdamOptions(1e-3));
+    const torch::Tensor images = torch::randn({batch, 1, 32, 32});
+    const torch::Tensor poses = torch::randn({batch, 1});
+    const torch::Tensor target = torch::randint(0, 2, {batch}, torch::kInt64);
+    const int steps = 30;
+    std::chrono::steady_clock::time_point t0;
+    for (int step = 0; step < steps + 5; ++step) {
+      if (step == 5) t0 = std::chrono::steady_clock::now();
+      opt.zero_grad();
+      const torch::Tensor loss = torch::cross_entropy_loss(net->forward(images, poses), target);
+      loss.backward();
+      opt.step();
+    }
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    result["train_crops_per_second"] = steps * batch / s;
+    result["train_batch"] = batch;
+    result["forward_macs_per_crop"] = models::GqcnnForwardMacs(c);
+    result["parameters"] = models::CountParameters(*net);
+  }
+  std::cout << result.dump(2) << std::endl;
+  return 0;
+}
+
+}  // namespace softgrasp::tools

@@ -1,0 +1,15 @@
+#pragma once
+/// `softgrasp-train gqcnn`, `gqcnn-eval` and `gqcnn-bench` (docs/gqcnn.md).
+
+#include <string>
+#include <vector>
+
+namespace softgrasp::tools {
+
+extern const char* const kGqcnnUsage;
+
+int RunGqcnnTrain(std::vector<std::string> args);
+int RunGqcnnEvaluate(std::vector<std::string> args);
+int RunGqcnnBench(std::vector<std::string> args);
+
+}  // namespace softgrasp::tools
