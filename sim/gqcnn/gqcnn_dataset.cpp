@@ -493,7 +493,9 @@ std::optional<core::Error> CheckParams(const GqcnnDatasetParams& p) {
 }
 
 /// A contact sheet of crops: each scaled 4x, grey = depth relative to the crop's grasp depth
-/// (+-3 cm), red = no reading, a green (positive) or red (negative) frame.
+/// (+-3 cm, nearer is brighter), red = no reading, the jaws' inner faces (the opening's pixel
+/// width about the centre, along the crop's +u) as cyan ticks on the centre row, a green
+/// (positive) or red (negative) frame.
 cv::Mat3b ContactSheet(const std::vector<gqcnn::GraspDatapoint>& datapoints, int count) {
   constexpr int kScale = 4;
   constexpr int kCell = gqcnn::kCropSizePx * kScale + 4;
@@ -522,6 +524,17 @@ cv::Mat3b ContactSheet(const std::vector<gqcnn::GraspDatapoint>& datapoints, int
         const double t = std::clamp((d.grasp_depth_m - z) / 0.06 + 0.5, 0.0, 1.0);
         const auto g = static_cast<unsigned char>(std::lround(255.0 * t));
         sheet(y0 + y, x0 + x) = cv::Vec3b(g, g, g);
+      }
+    }
+    // Jaw ticks: crop column 16 +- half the opening in crop pixels (source px / 3).
+    const double half_cols = 0.5 * d.hand_pose[6] * gqcnn::kCropSizePx / gqcnn::kDexNetSourceCropPx;
+    for (const double side : {-1.0, 1.0}) {
+      const int col = static_cast<int>(std::lround(16.0 + side * half_cols));
+      if (col < 0 || col >= gqcnn::kCropSizePx) continue;
+      for (int y = 2 + 14 * kScale; y < 2 + 19 * kScale; ++y) {
+        for (int x = 2 + col * kScale + 1; x < 2 + col * kScale + kScale - 1; ++x) {
+          sheet(y0 + y, x0 + x) = cv::Vec3b(255, 255, 0);
+        }
       }
     }
   }
