@@ -492,7 +492,8 @@ std::optional<core::Error> CheckParams(const GqcnnDatasetParams& p) {
   return std::nullopt;
 }
 
-/// A contact sheet of crops: each scaled 4x, grey = depth relative to the crop's grasp depth
+/// A contact sheet of `count` crops spread evenly over `datapoints`: each scaled 4x, grey = depth
+/// relative to the crop's grasp depth
 /// (+-3 cm, nearer is brighter), red = no reading, the jaws' inner faces (the opening's pixel
 /// width about the centre, along the crop's +u) as cyan ticks on the centre row, a green
 /// (positive) or red (negative) frame.
@@ -504,7 +505,9 @@ cv::Mat3b ContactSheet(const std::vector<gqcnn::GraspDatapoint>& datapoints, int
   const int rows = std::max(1, (n + cols - 1) / cols);
   cv::Mat3b sheet(rows * kCell, cols * kCell, cv::Vec3b(255, 255, 255));
   for (int k = 0; k < n; ++k) {
-    const gqcnn::GraspDatapoint& d = datapoints[static_cast<std::size_t>(k)];
+    // Evenly spaced through the shard: several objects, poses and grasps.
+    const gqcnn::GraspDatapoint& d =
+        datapoints[static_cast<std::size_t>(k) * datapoints.size() / static_cast<std::size_t>(n)];
     const int x0 = (k % cols) * kCell;
     const int y0 = (k / cols) * kCell;
     const cv::Vec3b frame = d.label ? cv::Vec3b(0, 180, 0) : cv::Vec3b(0, 0, 200);

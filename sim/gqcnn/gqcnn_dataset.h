@@ -70,7 +70,9 @@ struct GqcnnDatasetParams {
   NoiseModel noise = {.enabled = true};  ///< its seed is replaced per image
   /// Jaw opening stored as the grasp's pixel width (Dex-Net: the gripper's 5 cm open width).
   double gripper_opening_m = 0.05;
-  /// Write this many crops of the first generated shard as previews/crops.png (0 = none).
+  /// Write this many crops, evenly spaced through the first shard generated, as a contact sheet
+  /// previews/crops.png (0 = none): depth about the grasp depth in grey, jaw ticks in cyan,
+  /// a green (positive) or red frame.
   int preview_crops = 0;
 };
 
