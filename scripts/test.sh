@@ -12,7 +12,8 @@ ctest --test-dir "${SOFTGRASP_BUILD_DIR:-$root/build}" -j "$(nproc)" --output-on
 # The code that reads bytes from outside (HTTP parsing, static files, image and mesh decoders, the
 # preparation of uploaded meshes, the JSON codec), once more under AddressSanitizer + UBSan: their
 # unit tests and the fuzz-corpus replays; the grasp planners (the fast FGE's buffer and index
-# arithmetic); and the mesh grasp analysis (Qhull's C memory, Embree and FCL queries).
+# arithmetic); the mesh grasp analysis (Qhull's C memory, Embree and FCL queries); and the GQ-CNN
+# crop (raw pixel indexing of a rotated window).
 SOFTGRASP_BUILD_DIR="$root/build-asan" SOFTGRASP_WEB=0 \
 SOFTGRASP_TARGETS="http_message_test http_parser_test http_response_writer_test
   http_router_test http_server_test
@@ -21,10 +22,11 @@ SOFTGRASP_TARGETS="http_message_test http_parser_test http_response_writer_test
   mask_decode_replay mesh_decode_replay response_writer_replay codec_test json_codec_replay
   preprocess_test fge_test fge_stiffness_test
   raycast_test mesh_stable_poses_test mesh_grasp_quality_test mesh_antipodal_test
-  mesh_gripper_collision_test mesh_grasp_analysis_test gqcnn_dataset_format_test gqcnn_shard_replay" \
+  mesh_gripper_collision_test mesh_grasp_analysis_test gqcnn_dataset_format_test gqcnn_shard_replay
+  gqcnn_crop_test" \
   bash "$root/scripts/build.sh" -DSOFTGRASP_SANITIZER=address,undefined -DSOFTGRASP_BUILD_BENCHMARKS=OFF
 # Tests of targets not built in this pass show up as *_NOT_BUILT: skip them.
-ctest --test-dir "$root/build-asan" -j "$(nproc)" --output-on-failure -L 'http|io|mesh|fuzz|core' \
+ctest --test-dir "$root/build-asan" -j "$(nproc)" --output-on-failure -L 'http|io|mesh|fuzz|core|gqcnn' \
   -E 'NOT_BUILT'
 
 # The threaded parts once more under ThreadSanitizer: the HTTP server (I/O thread, workers,

@@ -1,6 +1,7 @@
 // softgrasp-sim: the simulator's command line: `generate` (datasets of simulated scenes),
 // `fractals` (batches of fractal training meshes), `mesh-grasps` (Dex-Net style grasp analyses
-// of mesh files) and `robot` (a simulated robot on the DDS bus).
+// of mesh files), `gqcnn-dataset` (Dex-Net 2.0 style GQ-CNN training data) and `robot` (a
+// simulated robot on the DDS bus).
 // Parsing only; the work is in the libraries.
 #include <iostream>
 #include <memory>
@@ -13,6 +14,7 @@
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/user_objects.h"
 #include "sim/fractal_batch.h"
+#include "sim/gqcnn/gqcnn_dataset.h"
 #include "sim/mesh_grasps_batch.h"
 #include "sim/progress.h"
 #include "sim/robot/robot_cli.h"
@@ -54,7 +56,22 @@ constexpr const char* kUsage =
     "  per mesh (the answer of POST /v1/meshes/grasps), with --png a preview of the most\n"
     "  probable pose, and DIR/index.json. Defaults: unit m, no rescale (Dex-Net: 40), 100\n"
     "  grasps, 25 robust samples, seed 0, friction 0.5, stroke 50 mm. Exit 1 if a file\n"
-    "  could not be analysed (the others are written).\n";
+    "  could not be analysed (the others are written).\n"
+    "\n"
+    "usage: softgrasp-sim gqcnn-dataset --out DIR [--source fractal|primitive|catalogue|meshes]\n"
+    "                                   [--alpha A] [--split train|val] [--meshes DIR]\n"
+    "                                   [--unit m|mm] [--objects N] [--seed S]\n"
+    "                                   [--images-per-pose K] [--shard-objects N]\n"
+    "                                   [--grasps N] [--robust-samples N] [--noise on|off]\n"
+    "                                   [--preview N]\n"
+    "  GQ-CNN training data the Dex-Net 2.0 way (docs/gqcnn-dataset.md): per object its\n"
+    "  stable poses, grasps and robust labels, depth renders on a table from random cameras\n"
+    "  and one 32x32 grasp-aligned crop per aligned grasp, in shards of N objects with\n"
+    "  DIR/index.json. Resumes a killed run (same arguments); refuses a folder made with\n"
+    "  other ones. Defaults: source fractal, alpha 0.3, split train, 10 objects (meshes: every\n"
+    "  file of --meshes DIR), seed 0, 10 images per pose (Dex-Net: 50), 10 objects per\n"
+    "  shard, 100 grasps, 25 robust samples, noise on, no preview (N crops of the first\n"
+    "  shard as DIR/previews/crops.png).\n";
 
 // Returns an error message, or "" when `params` is filled.
 std::string ParseGenerateArgs(std::vector<std::string> argv, sim::DatasetParams* params) {
@@ -219,6 +236,104 @@ int RunMeshGrasps(const std::vector<std::string>& args) {
   return result.value().failures.empty() ? 0 : 1;
 }
 
+// Returns an error message, or "" when `params` is filled.
+std::string ParseGqcnnDatasetArgs(std::vector<std::string> argv, sim::GqcnnDatasetParams* params) {
+  cli::Args args(std::move(argv));
+  std::string out;
+  args.Required("--out", "DIR", &out);
+  params->out_dir = out;
+  args.Choice<sim::GqcnnMeshSource>("--source",
+                                    {{"fractal", sim::GqcnnMeshSource::kFractal},
+                                     {"primitive", sim::GqcnnMeshSource::kPrimitive},
+                                     {"catalogue", sim::GqcnnMeshSource::kCatalogue},
+                                     {"meshes", sim::GqcnnMeshSource::kMeshes}},
+                                    &params->source);
+  const bool fractal = params->source == sim::GqcnnMeshSource::kFractal;
+  const bool catalogue = params->source == sim::GqcnnMeshSource::kCatalogue;
+  const bool meshes = params->source == sim::GqcnnMeshSource::kMeshes;
+  if (args.Number("--alpha", cli::Bounds::LeftOpen(0, 1000), &params->fractal_alpha) && !fractal) {
+    args.Fail("--alpha applies to --source fractal only", "--alpha");
+  }
+  if (args.Choice<std::string>("--split", {{"train", "train"}, {"val", "val"}},
+                               &params->catalogue_split) &&
+      !catalogue) {
+    args.Fail("--split applies to --source catalogue only", "--split");
+  }
+  std::string meshes_dir;
+  if (args.Text("--meshes", &meshes_dir) && !meshes) {
+    args.Fail("--meshes DIR needs --source meshes", "--meshes");
+  }
+  if (args.Choice<double>("--unit", {{"m", 1.0}, {"mm", 0.001}}, &params->mesh_unit_m) && !meshes) {
+    args.Fail("--unit applies to --source meshes only", "--unit");
+  }
+  if (meshes && args.ok() && meshes_dir.empty()) {
+    args.Fail("--source meshes needs --meshes DIR (a folder of OBJ/PLY/STL files)", "--meshes");
+  }
+  params->meshes_dir = meshes_dir;
+  params->objects = 0;  // 0 = the default: 10, or every file of the folder
+  args.Int("--objects", 1, 10000000, &params->objects);
+  args.Int("--seed", 0, cli::kNoLimit, &params->seed);
+  args.Int("--images-per-pose", 1, 10000, &params->images_per_pose);
+  args.Int("--shard-objects", 1, 100000, &params->shard_objects);
+  args.Int("--grasps", 1, 1000, &params->analysis.num_grasps);
+  args.Int("--robust-samples", 1, 200, &params->analysis.robust_samples);
+  args.Choice<bool>("--noise", {{"on", true}, {"off", false}}, &params->noise.enabled);
+  args.Int("--preview", 0, 1024, &params->preview_crops);
+  if (const auto error = args.Finish()) return error->message;
+  if (params->objects == 0 && !meshes) params->objects = 10;
+  return "";
+}
+
+int RunGqcnnDataset(const std::vector<std::string>& args) {
+  sim::GqcnnDatasetParams params = sim::DefaultGqcnnDatasetParams();
+  if (const std::string problem = ParseGqcnnDatasetArgs(args, &params); !problem.empty()) {
+    std::cerr << "softgrasp-sim gqcnn-dataset: " << problem << "\n" << kUsage;
+    return 2;
+  }
+  if (params.objects == 0) {  // --source meshes without --objects: every file
+    std::error_code ec;
+    int files = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(params.meshes_dir, ec)) {
+      std::string ext = entry.path().extension().string();
+      for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (entry.is_regular_file() && (ext == ".obj" || ext == ".ply" || ext == ".stl")) ++files;
+    }
+    params.objects = std::max(files, 1);
+  }
+  std::unique_ptr<sim::ProgressBar> bar;
+  auto result = sim::GenerateGqcnnDataset(params, [&bar](int done, int total) {
+    if (!bar) bar = std::make_unique<sim::ProgressBar>("objects", total);
+    bar->Update(done);
+  });
+  bar.reset();
+  if (!result.ok()) {
+    std::cerr << "softgrasp-sim gqcnn-dataset: " << result.error().message << "\n";
+    return result.error().code == softgrasp::core::ErrorCode::kInvalidArgument ? 2 : 1;
+  }
+  const sim::GqcnnDatasetResult& r = result.value();
+  for (const std::string& skipped : r.skipped) {
+    std::cerr << "softgrasp-sim gqcnn-dataset: skipped " << skipped << "\n";
+  }
+  const double datapoints = static_cast<double>(r.index.Datapoints());
+  const double images = static_cast<double>(r.images_generated);
+  std::cout << (params.out_dir / "index.json").string() << "\n"
+            << "objects " << r.index.objects.size() << " (skipped " << r.skipped.size()
+            << "), images " << r.index.Images() << ", datapoints " << r.index.Datapoints()
+            << ", positives " << r.index.Positives() << " ("
+            << (datapoints > 0 ? 100.0 * static_cast<double>(r.index.Positives()) / datapoints
+                               : 0.0)
+            << " %)\n"
+            << "shards generated " << r.shards_generated.size() << ", kept " << r.shards_kept.size()
+            << "\n";
+  if (images > 0) {
+    std::cout << "per image: render " << r.timing.render_ms / images << " ms, crops "
+              << r.timing.crop_ms / images << " ms; analysis "
+              << r.timing.analysis_ms / std::max(1.0, static_cast<double>(r.objects_generated))
+              << " ms per object\n";
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -230,6 +345,7 @@ int main(int argc, char** argv) {
   if (args[0] == "generate") return RunGenerate({args.begin() + 1, args.end()});
   if (args[0] == "fractals") return RunFractals({args.begin() + 1, args.end()});
   if (args[0] == "mesh-grasps") return RunMeshGrasps({args.begin() + 1, args.end()});
+  if (args[0] == "gqcnn-dataset") return RunGqcnnDataset({args.begin() + 1, args.end()});
   if (args[0] == "robot") return sim::RunRobotCommand({args.begin() + 1, args.end()});
   std::cerr << "softgrasp-sim: unknown command '" << args[0] << "'\n"
             << kUsage << "\n"

@@ -78,9 +78,10 @@ bool NextToDepthJump(const cv::Mat1f& depth, int row, int col, double jump_m) {
   return false;
 }
 
-/// Applies dropout and Gaussian noise to a copy of the noise-free depth.
-cv::Mat1f NoisyDepth(const cv::Mat1f& clean, const cv::Mat1f& cos_incidence,
-                     const NoiseModel& noise) {
+}  // namespace
+
+cv::Mat1f ApplyDepthNoise(const cv::Mat1f& clean, const cv::Mat1f& cos_incidence,
+                          const NoiseModel& noise) {
   cv::Mat1f out = clean.clone();
   const double min_cos = std::cos(DegToRad(noise.grazing_angle_deg));
   for (int row = 0; row < clean.rows; ++row) {
@@ -104,8 +105,6 @@ cv::Mat1f NoisyDepth(const cv::Mat1f& clean, const cv::Mat1f& cos_incidence,
   }
   return out;
 }
-
-}  // namespace
 
 core::Camera Sr305Camera() {
   core::Camera camera;
@@ -151,7 +150,7 @@ RenderedViews Render(const SceneRaycaster& raycaster, const RenderOptions& optio
                             views.deformability(v, u) = 1.0f - hit.stiffness;
                           });
   if (options.noise.enabled) {
-    views.depth.depth_m = NoisyDepth(views.depth.depth_m, cos_incidence, options.noise);
+    views.depth.depth_m = ApplyDepthNoise(views.depth.depth_m, cos_incidence, options.noise);
   }
   return views;
 }

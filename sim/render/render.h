@@ -48,6 +48,15 @@ struct RenderedViews {
   cv::Mat1f deformability;  ///< 1 - stiffness on objects, 0 elsewhere
 };
 
+/// The noise step of Render on its own, for renderers that cast their own rays (the GQ-CNN
+/// dataset): a copy of `clean_depth_m` (NaN = no hit) with grazing dropout where
+/// `cos_incidence` < cos(grazing angle), edge dropout and Gaussian noise. Randomness is a pure
+/// function of (noise.seed, row * cols + col), so the same inputs give the same bytes. Does not
+/// check the model's ranges (Render does) and ignores noise.enabled.
+/// @pre cos_incidence has clean_depth_m's size.
+cv::Mat1f ApplyDepthNoise(const cv::Mat1f& clean_depth_m, const cv::Mat1f& cos_incidence,
+                          const NoiseModel& noise);
+
 /// Renders every pixel's centre ray. Labels, stiffness and deformability are the noise-free
 /// truth (noise only touches depth). Deterministic in (scene, options).
 RenderedViews Render(const SceneRaycaster& raycaster, const RenderOptions& options);
