@@ -13,6 +13,7 @@
 #include "service/config/config.h"
 #include "service/core/preprocess.h"
 #include "service/http/server.h"
+#include "service/models/gqcnn_model.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 #include "service/rest/api.h"
@@ -120,6 +121,23 @@ LoadSegmentationModel(const std::string& path) {
       std::make_shared<models::SegmentationModel>(std::move(model).value()));
 }
 
+// The GQ-CNN (docs/gqcnn.md), or null when configured "none" (strategy=gqcnn is then refused).
+// A configured model that cannot be loaded is an error, as above.
+softgrasp::core::Result<std::shared_ptr<const softgrasp::models::GqcnnModel>> LoadGqcnnModel(
+    const std::string& path) {
+  using namespace softgrasp;
+  if (path == "none") {
+    std::cerr << "softgrasp-server: no GQ-CNN model (strategy=gqcnn is not served)\n";
+    return std::shared_ptr<const models::GqcnnModel>();
+  }
+  auto model = models::GqcnnModel::Load(path);
+  if (!model) return model.error();
+  std::cerr << "softgrasp-server: GQ-CNN model " << path << " (" << model.value().description()
+            << ")\n";
+  return std::shared_ptr<const models::GqcnnModel>(
+      std::make_shared<models::GqcnnModel>(std::move(model).value()));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -143,6 +161,9 @@ int main(int argc, char** argv) {
   if (config.segmentation_model.empty()) {
     config.segmentation_model = config::DefaultSegmentationModel(ExecutablePath(argv[0]));
   }
+  if (config.gqcnn_model.empty()) {
+    config.gqcnn_model = config::DefaultGqcnnModel(ExecutablePath(argv[0]));
+  }
   std::cerr << "config " << config::ConfigToJson(config) << "\n";
   if (std::error_code error; !std::filesystem::is_regular_file(
           std::filesystem::path(config.web_root) / "index.html", error)) {
@@ -160,6 +181,12 @@ int main(int argc, char** argv) {
   if (!segmentation_model) {
     std::cerr << "softgrasp-server: the segmentation model cannot be loaded: "
               << segmentation_model.error().message << "\n";
+    return 1;
+  }
+  auto gqcnn_model = LoadGqcnnModel(config.gqcnn_model);
+  if (!gqcnn_model) {
+    std::cerr << "softgrasp-server: the GQ-CNN model cannot be loaded: "
+              << gqcnn_model.error().message << "\n";
     return 1;
   }
 
@@ -182,7 +209,7 @@ int main(int argc, char** argv) {
   }
   try {
     http::Router router = rest::BuildRouter(config, robot.value(), stiffness_model.value(),
-                                            segmentation_model.value());
+                                            segmentation_model.value(), gqcnn_model.value());
     config.server.answer_inline = [&router](const http::Request& request) {
       return router.AnswersInline(request);
     };

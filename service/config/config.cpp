@@ -244,6 +244,10 @@ std::vector<Entry> Table(ServiceConfig& c) {
            "segmentation model file, or none for the PCL baseline (default: the shipped "
            "../models/segmentation.pt)",
            String(&c.segmentation_model)),
+      text("models", "gqcnn", "SOFTGRASP_GQCNN_MODEL", "--gqcnn-model", Text::kString,
+           "GQ-CNN model file for strategy=gqcnn, or none (default: the shipped "
+           "../models/gqcnn.pt)",
+           String(&c.gqcnn_model)),
       text("robot", "enabled", "SOFTGRASP_ROBOT_ENABLED", nullptr, Text::kBool,
            "serve the robot endpoints (docs/robot-api.md)", Bool(&r.enabled)),
       num("robot", "domain_id", "SOFTGRASP_ROBOT_DOMAIN_ID", nullptr, 0, 232, "DDS domain",
@@ -517,6 +521,10 @@ std::string DefaultStiffnessModel(const std::string& executable_path) {
 
 std::string DefaultSegmentationModel(const std::string& executable_path) {
   return ShippedModel(executable_path, "segmentation.pt");
+}
+
+std::string DefaultGqcnnModel(const std::string& executable_path) {
+  return ShippedModel(executable_path, "gqcnn.pt");
 }
 
 }  // namespace softgrasp::config

@@ -68,6 +68,9 @@ struct ServiceConfig {
   /// next to its executable; "none": no model (segmentation uses the PCL baseline, and
   /// method=model answers 503).
   std::string segmentation_model;
+  /// GQ-CNN model file (docs/gqcnn.md) for strategy=gqcnn. Empty: softgrasp-server uses
+  /// DefaultGqcnnModel() next to its executable; "none": no model (strategy=gqcnn answers 400).
+  std::string gqcnn_model;
   RobotConfig robot;
 };
 
@@ -129,6 +132,8 @@ std::string DefaultStiffnessModel(const std::string& executable_path);
 /// "<prefix>/models/segmentation.pt", else "<prefix>/share/softgrasp/models/segmentation.pt",
 /// else "none" (the PCL baseline serves).
 std::string DefaultSegmentationModel(const std::string& executable_path);
+/// The shipped ../models/gqcnn.pt next to the executable's folder, or "none" when absent.
+std::string DefaultGqcnnModel(const std::string& executable_path);
 
 /// The effective configuration as JSON, with the robot tokens masked.
 std::string ConfigToJson(const ServiceConfig& config);

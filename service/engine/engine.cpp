@@ -18,6 +18,7 @@ double MillisecondsSince(Clock::time_point start) {
 
 /// What a planner works with: the restricted scene, the maps, the instances and the target.
 struct PlanContext {
+  const Models& models;
   const core::Scene& scene;
   const core::Camera& camera;
   const PlanOptions& options;
@@ -26,7 +27,9 @@ struct PlanContext {
   int target_id;               ///< > 0: the requested target
 };
 
-void PlanFge(const PlanContext& c, Plan* plan) {
+using PlanError = std::optional<core::Error>;
+
+PlanError PlanFge(const PlanContext& c, Plan* plan) {
   for (const core::Grasp& g :
        core::DetectGraspsFge(c.scene, c.camera, c.options.gripper, c.options.fge)) {
     PlannedGrasp p;
@@ -36,9 +39,32 @@ void PlanFge(const PlanContext& c, Plan* plan) {
     }
     plan->grasps.push_back(std::move(p));
   }
+  return std::nullopt;
 }
 
-void PlanStiffness(const PlanContext& c, Plan* plan) {
+PlanError PlanGqcnn(const PlanContext& c, Plan* plan) {
+  gqcnn::PolicyParams params = c.options.gqcnn;
+  params.num_grasps = c.options.fge.top_k;
+  const models::GqcnnModel& model = *c.models.gqcnn;
+  auto planned =
+      gqcnn::PlanGqcnnGrasps(c.scene, c.camera, c.options.gripper, params,
+                             [&model](std::span<const float> crops, std::span<const float> depths) {
+                               return model.Predict(crops, depths);
+                             });
+  if (!planned.ok()) return planned.error();
+  const gqcnn::PolicyPlan& p = planned.value();
+  for (const gqcnn::PolicyGrasp& g : p.grasps) {
+    PlannedGrasp out;
+    out.grasp = g.grasp;
+    out.gqcnn_pose = g.image_pose;
+    plan->grasps.push_back(std::move(out));
+  }
+  plan->gqcnn = GqcnnStats{p.edge_pixels, p.antipodal_pairs, p.evaluated, p.timing.sample_ms,
+                           p.timing.evaluate_ms};
+  return std::nullopt;
+}
+
+PlanError PlanStiffness(const PlanContext& c, Plan* plan) {
   core::StiffnessFgeParams params = c.options.stiffness;
   params.fge = c.options.fge;
   for (const core::Grasp& g :
@@ -47,9 +73,10 @@ void PlanStiffness(const PlanContext& c, Plan* plan) {
     p.grasp = g;
     plan->grasps.push_back(std::move(p));
   }
+  return std::nullopt;
 }
 
-void PlanDeformability(const PlanContext& c, Plan* plan) {
+PlanError PlanDeformability(const PlanContext& c, Plan* plan) {
   core::DeformabilityParams params = c.options.deformability;
   params.fge = c.options.fge;
   params.target_id = c.target_id;
@@ -72,9 +99,10 @@ void PlanDeformability(const PlanContext& c, Plan* plan) {
   }
   plan->target =
       TargetChoice{planned.target_id, params.policy, planned.tried_ids, planned.fallback};
+  return std::nullopt;
 }
 
-using Planner = void (*)(const PlanContext&, Plan*);
+using Planner = PlanError (*)(const PlanContext&, Plan*);
 
 struct Registered {
   StrategyInfo info;
@@ -85,9 +113,10 @@ struct Registered {
 // last one the loaded models serve).
 const std::vector<Registered>& Registry() {
   static const std::vector<Registered> registry = {
-      {{Strategy::kFge, "fge", false, false, false}, &PlanFge},
-      {{Strategy::kStiffness, "stiffness", true, false, false}, &PlanStiffness},
-      {{Strategy::kDeformability, "deformability", false, true, true}, &PlanDeformability},
+      {{Strategy::kFge, "fge", false, false, false, false}, &PlanFge},
+      {{Strategy::kGqcnn, "gqcnn", false, false, true, false}, &PlanGqcnn},
+      {{Strategy::kStiffness, "stiffness", true, false, false, false}, &PlanStiffness},
+      {{Strategy::kDeformability, "deformability", false, true, false, true}, &PlanDeformability},
   };
   return registry;
 }
@@ -112,11 +141,13 @@ std::string QuotedList(const std::vector<Strategy>& strategies) {
 
 core::Error Missing(const Models& models, Strategy strategy) {
   const StrategyInfo& info = InfoOf(strategy);
-  const char* missing = info.needs_segmentation_model && !models.segmentation
-                            ? "a segmentation model and none is loaded (start the server with "
-                              "--segmentation-model)"
-                            : "a stiffness model and none is loaded (start the server with "
-                              "--stiffness-model)";
+  const char* missing =
+      info.needs_segmentation_model && !models.segmentation
+          ? "a segmentation model and none is loaded (start the server with "
+            "--segmentation-model)"
+      : info.needs_gqcnn_model && !models.gqcnn
+          ? "a GQ-CNN model and none is loaded (start the server with --gqcnn-model)"
+          : "a stiffness model and none is loaded (start the server with --stiffness-model)";
   return core::MakeError(core::ErrorCode::kInvalidArgument,
                          std::string("strategy '") + info.name + "' needs " + missing +
                              "; use strategy " + QuotedList(ServedStrategies(models)),
@@ -156,7 +187,8 @@ std::optional<Strategy> StrategyByName(std::string_view name) {
 bool Serves(const Models& models, Strategy strategy) {
   const StrategyInfo& info = InfoOf(strategy);
   return (!info.needs_stiffness_model || models.stiffness) &&
-         (!info.needs_segmentation_model || models.segmentation);
+         (!info.needs_segmentation_model || models.segmentation) &&
+         (!info.needs_gqcnn_model || models.gqcnn);
 }
 
 std::optional<core::Error> Unserved(const Models& models, Strategy strategy) {
@@ -182,7 +214,8 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
   const bool given_map = !options.stiffness_map.empty();
   // A given stiffness map stands in for the stiffness model.
   if ((info.needs_stiffness_model && !given_map && !models.stiffness) ||
-      (info.needs_segmentation_model && !models.segmentation)) {
+      (info.needs_segmentation_model && !models.segmentation) ||
+      (info.needs_gqcnn_model && !models.gqcnn)) {
     return Missing(models, options.strategy);
   }
   // Strategies without a map of their own report the stiffness model's mean on request.
@@ -206,6 +239,9 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
   }
   if (!(std::isfinite(options.min_depth_m) && options.min_depth_m >= 0)) {
     return Invalid("min_depth_m must be finite and >= 0", "min_depth_m");
+  }
+  if (info.needs_gqcnn_model) {
+    if (auto error = gqcnn::ValidatePolicyParams(options.gqcnn)) return *error;
   }
 
   Plan plan;
@@ -249,11 +285,11 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
 
   if (options.plan && !plan.target_not_found) {
     const auto detect_start = Clock::now();
-    const PlanContext context{
-        plan.scene, camera, options, plan.stiffness, plan.instances ? &*plan.instances : nullptr,
-        target_id};
+    const PlanContext context{models,   plan.scene,     camera,
+                              options,  plan.stiffness, plan.instances ? &*plan.instances : nullptr,
+                              target_id};
     try {
-      strategy.plan(context, &plan);
+      if (auto error = strategy.plan(context, &plan)) return *error;
     } catch (const std::invalid_argument& e) {
       // Options the planner refuses (e.g. a slice step longer than the fingers).
       return Invalid(e.what(), "options");

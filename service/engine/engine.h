@@ -23,19 +23,24 @@
 #include "service/core/preprocess.h"
 #include "service/core/status.h"
 #include "service/engine/instances.h"
+#include "service/gqcnn/policy.h"
+#include "service/models/gqcnn_model.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 
 namespace softgrasp::engine {
 
-/// The models a process has loaded; either may be null.
+/// The models a process has loaded; any may be null.
 struct Models {
   std::shared_ptr<const models::StiffnessModel> stiffness;
   std::shared_ptr<const models::SegmentationModel> segmentation;
+  std::shared_ptr<const models::GqcnnModel> gqcnn;
 };
 
 enum class Strategy {
-  kFge,        ///< classic FGE: graspability (centre of the contact surface)
+  kFge,  ///< classic FGE: graspability (centre of the contact surface)
+  /// Dex-Net 2.0's policy: antipodal candidates ranked by the GQ-CNN, CEM-refined (docs/gqcnn.md)
+  kGqcnn,
   kStiffness,  ///< stiffness-aware FGE on the stiffness model's map
   /// Algorithm 1 on one target object with the segmentation model's deformability map
   /// (docs/deformability.md)
@@ -48,6 +53,7 @@ struct StrategyInfo {
   const char* name;               ///< as requests name it
   bool needs_stiffness_model;     ///< plans on the stiffness model's map
   bool needs_segmentation_model;  ///< plans on instances and the deformability map
+  bool needs_gqcnn_model;         ///< ranks its candidates with the GQ-CNN
   /// Chooses and plans its own target (a requested target is its input); for the others a
   /// target restricts contacts to that instance and every other object stays an obstacle.
   bool plans_target;
@@ -96,6 +102,9 @@ struct PlanOptions {
   cv::Mat1f stiffness_map;
   /// strategy=stiffness: its ranking parameters; its `fge` is replaced by this struct's.
   core::StiffnessFgeParams stiffness;
+  /// strategy=gqcnn: sampling and refinement; its num_grasps is replaced by fge.top_k (the
+  /// request's number of grasps).
+  gqcnn::PolicyParams gqcnn;
   /// Maps the caller shows besides the plan (e.g. in a picture): computed even when the strategy
   /// does not need them.
   bool want_stiffness_map = false;
@@ -121,6 +130,18 @@ struct PlannedGrasp {
   /// The mean deformability of the instance under its centre (the segmentation model's map).
   std::optional<double> instance_deformability;
   std::optional<DeformabilityRecord> deformability;  ///< strategy=deformability only
+  /// strategy=gqcnn only: the network's P(success) (also the grasp's score) and the grasp's
+  /// image pose as the network saw it (depth = z of the grasp centre, metres).
+  std::optional<gqcnn::GraspImagePose> gqcnn_pose;
+};
+
+/// What strategy=gqcnn did.
+struct GqcnnStats {
+  int edge_pixels = 0;
+  int antipodal_pairs = 0;
+  int evaluated = 0;  ///< crops the network scored
+  double sample_ms = 0;
+  double evaluate_ms = 0;
 };
 
 /// The target a strategy that plans targets chose.
@@ -147,6 +168,7 @@ struct Plan {
   std::optional<Instances> instances;
   std::vector<PlannedGrasp> grasps;    ///< best first
   std::optional<TargetChoice> target;  ///< strategies that plan targets
+  std::optional<GqcnnStats> gqcnn;     ///< strategy=gqcnn
   bool target_not_found = false;       ///< target_px was on no instance
   PlanTimings timing;
 };

@@ -49,6 +49,11 @@ json GraspToJson(const engine::PlannedGrasp& planned, int rank) {
                      {"pressed_instances", d->pressed_ids},
                      {"press_depth_m", d->press_depth_m}};
   }
+  json gqcnn;
+  if (const auto& pose = planned.gqcnn_pose) {
+    // The network's input besides the crop: how deep below the camera the jaws' centre goes.
+    gqcnn = {{"predicted_quality", g.score}, {"grasp_depth_m", pose->depth_m}};
+  }
   return {
       {"rank", rank},
       {"score", g.score},
@@ -70,6 +75,7 @@ json GraspToJson(const engine::PlannedGrasp& planned, int rank) {
       {"instance_deformability", OrNull(planned.instance_deformability)},
       {"pose", codec::ToJson(codec::Pose{"camera", g.p_CG_m, g.q_CG_wxyz})},
       {"deformability", deformability},
+      {"gqcnn", gqcnn},
   };
 }
 
@@ -100,7 +106,22 @@ json ModelsJson(const Models& models) {
                     {"parameters", segmentation->parameter_count()},
                     {"description", segmentation->description()}});
   }
+  if (const auto& gqcnn = models.gqcnn) {
+    list.push_back({{"name", "gqcnn"},
+                    {"kind", "grasp_quality"},
+                    {"parameters", gqcnn->parameter_count()},
+                    {"description", gqcnn->description()}});
+  }
   return list;
+}
+
+// strategy=gqcnn's request fields and their defaults (docs/gqcnn.md).
+json GqcnnDefaultsJson() {
+  const gqcnn::PolicyParams p;
+  return {{"gqcnn_seed_samples", p.seed_samples},
+          {"cem_iterations", p.cem_iterations},
+          {"cem_samples", p.cem_samples},
+          {"gqcnn_seed", p.seed}};
 }
 
 // strategy=deformability's request fields and their defaults (docs/deformability.md).
@@ -173,7 +194,8 @@ http::Response Info(const config::ServiceConfig& config, bool robot_running, con
        {{"camera", codec::ToJson(config.default_camera)},
         {"gripper", codec::ToJson(config.default_gripper)},
         {"png_unit_m", config.png_unit_m},
-        {"deformability", DeformabilityDefaultsJson()}}},
+        {"deformability", DeformabilityDefaultsJson()},
+        {"gqcnn", GqcnnDefaultsJson()}}},
       {"robot", RobotInfoJson(config, robot_running)},
   };
   body["defaults"].update(codec::ToJson(config.fge));
@@ -245,6 +267,13 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
       {"grasps", list},
       {"timing_ms", timing},
   };
+  if (const auto& g = plan.gqcnn) {
+    body["gqcnn"] = {{"edge_pixels", g->edge_pixels},
+                     {"antipodal_pairs", g->antipodal_pairs},
+                     {"evaluated", g->evaluated},
+                     {"sample_ms", g->sample_ms},
+                     {"evaluate_ms", g->evaluate_ms}};
+  }
   if (const auto& t = plan.target) {
     body["target"] = {{"id", t->id > 0 ? json(t->id) : json()},
                       {"policy", core::TargetPolicyName(t->policy)},
@@ -576,8 +605,10 @@ http::Router BuildRouter(const config::ServiceConfig& config) {
 http::Router BuildRouter(const config::ServiceConfig& config,
                          std::shared_ptr<robot::CommandTracker> robot,
                          std::shared_ptr<const models::StiffnessModel> stiffness_model,
-                         std::shared_ptr<const models::SegmentationModel> segmentation_model) {
-  const Models models{std::move(stiffness_model), std::move(segmentation_model)};
+                         std::shared_ptr<const models::SegmentationModel> segmentation_model,
+                         std::shared_ptr<const models::GqcnnModel> gqcnn_model) {
+  const Models models{std::move(stiffness_model), std::move(segmentation_model),
+                      std::move(gqcnn_model)};
   http::Router router;
   const bool robot_running = robot != nullptr;
   // Constant-time answers: served on the I/O thread, so they answer while every worker plans.

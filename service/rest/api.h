@@ -7,6 +7,7 @@
 #include "service/core/status.h"
 #include "service/http/message.h"
 #include "service/http/router.h"
+#include "service/models/gqcnn_model.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 #include "service/robot/command_tracker.h"
@@ -24,10 +25,12 @@ http::Router BuildRouter(const config::ServiceConfig& config);
 /// map and strategy=stiffness served by `stiffness_model` (null: POST /v1/stiffness answers 503
 /// and /v1/grasps plans with classic FGE only), and object instances segmented by
 /// `segmentation_model` (null: POST /v1/segmentation and the instance options of /v1/grasps use
-/// the PCL baseline; method=model answers 503).
+/// the PCL baseline; method=model answers 503), and strategy=gqcnn ranked by `gqcnn_model` (null:
+/// strategy=gqcnn is refused with a 400 naming the flag that loads one).
 http::Router BuildRouter(
     const config::ServiceConfig& config, std::shared_ptr<robot::CommandTracker> robot,
     std::shared_ptr<const models::StiffnessModel> stiffness_model = nullptr,
-    std::shared_ptr<const models::SegmentationModel> segmentation_model = nullptr);
+    std::shared_ptr<const models::SegmentationModel> segmentation_model = nullptr,
+    std::shared_ptr<const models::GqcnnModel> gqcnn_model = nullptr);
 
 }  // namespace softgrasp::rest

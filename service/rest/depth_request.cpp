@@ -145,6 +145,19 @@ const std::map<std::string, NumericOption>& NumericOptions() {
       {"max_targets",
        {1, 64, true,
         [](GraspRequest& r, double v) { r.plan.deformability.max_targets = static_cast<int>(v); }}},
+      // strategy=gqcnn (docs/gqcnn.md): Dex-Net 2.0's candidate sampling and CEM.
+      {"gqcnn_seed_samples",
+       {1, 10000, true,
+        [](GraspRequest& r, double v) { r.plan.gqcnn.seed_samples = static_cast<int>(v); }}},
+      {"cem_iterations",
+       {0, 20, true,
+        [](GraspRequest& r, double v) { r.plan.gqcnn.cem_iterations = static_cast<int>(v); }}},
+      {"cem_samples",
+       {1, 10000, true,
+        [](GraspRequest& r, double v) { r.plan.gqcnn.cem_samples = static_cast<int>(v); }}},
+      {"gqcnn_seed",
+       {0, 9007199254740991.0, true,
+        [](GraspRequest& r, double v) { r.plan.gqcnn.seed = static_cast<std::uint64_t>(v); }}},
   };
   return options;
 }

@@ -87,7 +87,7 @@ TEST(Strategies, AreRegisteredOnceByNameInOrderOfPreference) {
     EXPECT_EQ(StrategyByName(info.name), info.strategy);
     EXPECT_STREQ(StrategyName(info.strategy), info.name);
   }
-  EXPECT_FALSE(StrategyByName("gqcnn").has_value());
+  EXPECT_FALSE(StrategyByName("dexnet").has_value());
   EXPECT_FALSE(StrategyByName("").has_value());
   EXPECT_EQ(Strategies().front().strategy, Strategy::kFge);  // needs no model: always served
 }
@@ -95,7 +95,7 @@ TEST(Strategies, AreRegisteredOnceByNameInOrderOfPreference) {
 TEST(Strategies, TheDefaultIsTheLastOneTheLoadedModelsServe) {
   EXPECT_EQ(DefaultStrategy({}), Strategy::kFge);
   EXPECT_EQ(ServedStrategies({}), std::vector<Strategy>{Strategy::kFge});
-  const Models stiffness{ShippedStiffness(), nullptr};
+  const Models stiffness{ShippedStiffness(), nullptr, nullptr};
   EXPECT_EQ(DefaultStrategy(stiffness), Strategy::kStiffness);
   EXPECT_TRUE(Serves(stiffness, Strategy::kStiffness));
   EXPECT_FALSE(Serves(stiffness, Strategy::kDeformability));
@@ -219,6 +219,10 @@ TEST(PlanGrasps, RefusesWhatTheCallerGotWrong) {
   EXPECT_EQ(error(o).field, "strategy");
   o.strategy = Strategy::kDeformability;
   EXPECT_EQ(error(o).field, "strategy");
+  o.strategy = Strategy::kGqcnn;
+  EXPECT_EQ(error(o).field, "strategy");
+  EXPECT_NE(error(o).message.find("GQ-CNN model"), std::string::npos) << error(o).message;
+  EXPECT_NE(error(o).message.find("--gqcnn-model"), std::string::npos) << error(o).message;
   o = {};
   o.mean_stiffness = true;
   EXPECT_EQ(error(o).field, "mean_stiffness");
@@ -272,14 +276,14 @@ TEST(Segment, FindsEachBoxAndDescribesIt) {
 
   // Not described unless asked; the stiffness model runs only to describe.
   options.describe = false;
-  auto bare =
-      Segment(Scene().synth.depth, Scene().synth.camera, options, {ShippedStiffness(), nullptr});
+  auto bare = Segment(Scene().synth.depth, Scene().synth.camera, options,
+                      {ShippedStiffness(), nullptr, nullptr});
   ASSERT_TRUE(bare.ok());
   EXPECT_TRUE(bare.value().described.empty());
   EXPECT_EQ(bare.value().timing.stiffness_ms, 0.0);
   options.describe = true;
-  auto with_stiffness =
-      Segment(Scene().synth.depth, Scene().synth.camera, options, {ShippedStiffness(), nullptr});
+  auto with_stiffness = Segment(Scene().synth.depth, Scene().synth.camera, options,
+                                {ShippedStiffness(), nullptr, nullptr});
   ASSERT_TRUE(with_stiffness.ok());
   for (const auto& info : with_stiffness.value().described) {
     ASSERT_TRUE(info.mean_stiffness.has_value());

@@ -24,6 +24,7 @@
 #include "tools/train/evaluate.h"
 #include "tools/train/evaluate_tasks.h"
 #include "tools/train/gqcnn_cli.h"
+#include "tools/train/gqcnn_picks.h"
 #include "tools/train/segmentation_cli.h"
 
 namespace {
@@ -54,7 +55,13 @@ constexpr const char* kUsage =
     "                                [--per-grasp]\n"
     "                                [--seed S] [--threads T] [--out FILE]\n"
     "  The thesis' three tasks in the simulator (docs/deformability.md): fge, stiffness and\n"
-    "  deformability (both target policies) on the same scenes; JSON with 95 % intervals.\n";
+    "  deformability (both target policies) on the same scenes; JSON with 95 % intervals.\n"
+    "       softgrasp-train gqcnn-picks --model MODEL [--model MODEL2...] [--meshes DIR]\n"
+    "                                [--single-scenes N] [--clutter-scenes N] [--seed S]\n"
+    "                                [--camera-height M] [--out FILE]\n"
+    "  Simulated picks (docs/gqcnn.md): strategy=gqcnn with each model against classic FGE on\n"
+    "  the same scenes, single held-out objects (--meshes, rescaled as Dex-Net does) on a\n"
+    "  table and validation catalogue clutter in a bin; JSON with 95 % paired intervals.\n";
 
 int Fail(const std::string& message) {
   std::cerr << "softgrasp-train: " << message << "\n";
@@ -147,6 +154,7 @@ int main(int argc, char** argv) {
   if (command == "gqcnn") return softgrasp::tools::RunGqcnnTrain(std::move(args));
   if (command == "gqcnn-eval") return softgrasp::tools::RunGqcnnEvaluate(std::move(args));
   if (command == "gqcnn-bench") return softgrasp::tools::RunGqcnnBench(std::move(args));
+  if (command == "gqcnn-picks") return softgrasp::tools::RunGqcnnPicks(std::move(args));
   if (command == "--help" || command == "-h") {
     std::cout << kUsage << softgrasp::tools::kSegmentationUsage << softgrasp::tools::kGqcnnUsage;
     return 0;
