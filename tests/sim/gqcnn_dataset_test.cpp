@@ -197,6 +197,18 @@ TEST(GqcnnDatasetTest, SameSeedSameBytesAndADamagedOrDeletedShardIsRegeneratedAl
   ASSERT_TRUE(GenerateGqcnnDataset(other).ok());
   EXPECT_NE(Slurp(dir / "a" / files[2]), Slurp(dir / "c" / files[2]));
 
+  // Convex primitives: the ray through a grasp centre meets the object at or before the centre,
+  // so the crop's centre pixel reads at most the grasp depth (noise: +1 mm; dropout: 0).
+  {
+    auto shard0 = gqcnn::ReadShard(dir / "a" / files[2]);
+    ASSERT_TRUE(shard0.ok());
+    std::size_t in_front = 0;
+    for (const auto& d : shard0.value()) {
+      const float centre = d.crop_depth_m[16 * gqcnn::kCropSizePx + 16];
+      if (centre > 0.0F && centre < d.grasp_depth_m + 0.001F) ++in_front;
+    }
+    EXPECT_GE(static_cast<double>(in_front), 0.95 * static_cast<double>(shard0.value().size()));
+  }
   // Records are numbered dataset-wide and point into the index.
   auto shard1 = gqcnn::ReadShard(dir / "a" / files[3]);
   ASSERT_TRUE(shard1.ok());
