@@ -133,7 +133,7 @@ class GqcnnPoseScene {
   /// Draws a camera and placement from `image_seed` (REFERENCE §1.7), renders the table (the
   /// plane z = 0, computed per pixel) and the object (Embree) with params.noise seeded from
   /// `image_seed`, and appends one datapoint per aligned grasp whose centre projects into the
-  /// image (object_index and image_index left 0, grasp_index = rank in the analysis). Only the
+  /// image (object, pose and image indices left 0, grasp_index = rank in the analysis). Only the
   /// window the crops read is rendered unless `full_image` (the benchmark's baseline; the
   /// datapoints are the same up to the noise, which is drawn per window pixel). Nothing is
   /// rendered when no grasp is aligned. Returns the pixels rendered; `depth_out` receives the

@@ -7,10 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <random>
 #include <stdexcept>
 
 namespace softgrasp::gqcnn {
@@ -249,6 +251,44 @@ TEST(GqcnnCropTest, ProjectGraspRefusesWhatCannotBeSeen) {
   ASSERT_TRUE(tilted.has_value());
   EXPECT_GT(tilted->angle_rad, kPi);
   EXPECT_LT(tilted->angle_rad, 1.5 * kPi);
+}
+
+TEST(GqcnnCropTest, EveryPixelIsZeroOrAWeightedMeanOfReadings) {
+  // Random images with holes and random grasps, in and out of the image: every crop pixel is 0
+  // or within the range of the image's valid readings (a weighted mean of some of them).
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> depth(0.4F, 0.9F);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int width = 20 + static_cast<int>(300 * unit(rng));
+    const int height = 20 + static_cast<int>(300 * unit(rng));
+    core::DepthImage image;
+    image.depth_m = cv::Mat1f(height, width);
+    float lo = 10.0F;
+    float hi = 0.0F;
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        const double r = unit(rng);
+        float z = depth(rng);
+        if (r < 0.1) z = std::numeric_limits<float>::quiet_NaN();
+        if (r >= 0.1 && r < 0.15) z = 0.0F;
+        if (r >= 0.15 && r < 0.17) z = -1.0F;
+        if (r >= 0.17 && r < 0.18) z = std::numeric_limits<float>::infinity();
+        image.depth_m(v, u) = z;
+        if (z > 0.0F && std::isfinite(z)) {
+          lo = std::min(lo, z);
+          hi = std::max(hi, z);
+        }
+      }
+    }
+    const GraspImagePose pose{(unit(rng) * 1.6 - 0.3) * width, (unit(rng) * 1.6 - 0.3) * height,
+                              unit(rng) * 2 * kPi, 0.7, 30.0};
+    Crop crop{};
+    CropGrasp(image, pose, crop.data(), trial % 2 == 0 ? 96 : 50);
+    for (float z : crop) {
+      ASSERT_TRUE(z == 0.0F || (z >= lo - 1e-6F && z <= hi + 1e-6F)) << z << " trial " << trial;
+    }
+  }
 }
 
 TEST(GqcnnCropTest, BadArgumentsThrow) {

@@ -140,6 +140,43 @@ TEST(GqcnnDatasetTest, CubeDatapointsCarryTheAnalysisValuesAndFaceGraspsAreFree)
   EXPECT_GT(centre_checks, 0);
 }
 
+TEST(GqcnnDatasetTest, TheRenderedWindowHoldsEverythingTheCropsRead) {
+  // Without noise, crops from the window equal crops from the full 600 x 600 render: the window
+  // margin covers the crops' reach.
+  const mesh::TriangleMesh box = testing::CentredBoxMesh(Eigen::Vector3d(0.02, 0.035, 0.025));
+  GqcnnDatasetParams params = DefaultGqcnnDatasetParams();
+  params.noise.enabled = false;
+  mesh::MeshGraspOptions options = params.analysis;
+  options.num_grasps = 30;
+  options.robust_samples = 1;
+  options.seed = 5;
+  auto analysed = mesh::AnalyseMeshGrasps(box, options);
+  ASSERT_TRUE(analysed.ok()) << analysed.error().message;
+  int compared = 0;
+  for (int pose = 0; pose < static_cast<int>(analysed.value().poses.size()); ++pose) {
+    auto scene = MakePoseScene(box, analysed.value(), pose);
+    ASSERT_TRUE(scene.ok());
+    for (std::uint64_t image_seed = 10; image_seed < 12; ++image_seed) {
+      std::vector<gqcnn::GraspDatapoint> window, full;
+      const std::int64_t window_px = scene.value().RenderImage(params, image_seed, false, &window);
+      const std::int64_t full_px = scene.value().RenderImage(params, image_seed, true, &full);
+      ASSERT_EQ(window.size(), full.size());
+      if (window.empty()) continue;
+      EXPECT_EQ(full_px, 600 * 600);
+      EXPECT_LT(window_px, full_px / 4);
+      for (std::size_t i = 0; i < window.size(); ++i) {
+        EXPECT_EQ(window[i].hand_pose, full[i].hand_pose);
+        for (int p = 0; p < gqcnn::kCropPixels; ++p) {
+          ASSERT_NEAR(window[i].crop_depth_m[p], full[i].crop_depth_m[p], 1e-6)
+              << "pose " << pose << " grasp " << i << " pixel " << p;
+        }
+        ++compared;
+      }
+    }
+  }
+  EXPECT_GT(compared, 10);
+}
+
 TEST(GqcnnDatasetTest, SameSeedSameBytesAndADamagedOrDeletedShardIsRegeneratedAlone) {
   const testing::TempDir dir("gqcnn-dataset");
   auto first = GenerateGqcnnDataset(SmallParams(dir / "a"));
@@ -160,6 +197,18 @@ TEST(GqcnnDatasetTest, SameSeedSameBytesAndADamagedOrDeletedShardIsRegeneratedAl
   ASSERT_TRUE(GenerateGqcnnDataset(other).ok());
   EXPECT_NE(Slurp(dir / "a" / files[2]), Slurp(dir / "c" / files[2]));
 
+  // Convex primitives: the ray through a grasp centre meets the object at or before the centre,
+  // so the crop's centre pixel reads at most the grasp depth (noise: +1 mm; dropout: 0).
+  {
+    auto shard0 = gqcnn::ReadShard(dir / "a" / files[2]);
+    ASSERT_TRUE(shard0.ok());
+    std::size_t in_front = 0;
+    for (const auto& d : shard0.value()) {
+      const float centre = d.crop_depth_m[16 * gqcnn::kCropSizePx + 16];
+      if (centre > 0.0F && centre < d.grasp_depth_m + 0.001F) ++in_front;
+    }
+    EXPECT_GE(static_cast<double>(in_front), 0.95 * static_cast<double>(shard0.value().size()));
+  }
   // Records are numbered dataset-wide and point into the index.
   auto shard1 = gqcnn::ReadShard(dir / "a" / files[3]);
   ASSERT_TRUE(shard1.ok());
