@@ -61,7 +61,8 @@ constexpr const char* kUsage =
     "usage: softgrasp-sim gqcnn-dataset --out DIR [--source fractal|primitive|catalogue|meshes]\n"
     "                                   [--alpha A] [--split train|val] [--meshes DIR]\n"
     "                                   [--unit m|mm] [--objects N] [--seed S]\n"
-    "                                   [--images-per-pose K] [--shard-objects N]\n"
+    "                                   [--images-per-pose K | --images-per-object K]\n"
+    "                                   [--metric-threshold T] [--shard-objects N]\n"
     "                                   [--grasps N] [--robust-samples N] [--noise on|off]\n"
     "                                   [--preview N]\n"
     "  GQ-CNN training data the Dex-Net 2.0 way (docs/gqcnn-dataset.md): per object its\n"
@@ -69,7 +70,9 @@ constexpr const char* kUsage =
     "  and one 32x32 grasp-aligned crop per aligned grasp, in shards of N objects with\n"
     "  DIR/index.json. Resumes a killed run (same arguments); refuses a folder made with\n"
     "  other ones. Defaults: source fractal, alpha 0.3, split train, 10 objects (meshes: every\n"
-    "  file of --meshes DIR), seed 0, 10 images per pose (Dex-Net: 50), 10 objects per\n"
+    "  file of --meshes DIR), seed 0, 10 images per pose (Dex-Net: 50; --images-per-object\n"
+    "  spreads exactly K images over the poses), label threshold 0.0002 on robust\n"
+    "  Ferrari-Canny (0.002 = Dex-Net's literal rule; see the doc), 10 objects per\n"
     "  shard, 100 grasps, 25 robust samples, noise on, no preview (N crops of the first\n"
     "  shard as DIR/previews/crops.png).\n";
 
@@ -274,6 +277,8 @@ std::string ParseGqcnnDatasetArgs(std::vector<std::string> argv, sim::GqcnnDatas
   args.Int("--objects", 1, 10000000, &params->objects);
   args.Int("--seed", 0, cli::kNoLimit, &params->seed);
   args.Int("--images-per-pose", 1, 10000, &params->images_per_pose);
+  args.Int("--images-per-object", 1, 100000, &params->images_per_object);
+  args.Number("--metric-threshold", cli::Bounds{0, 1, false, true}, &params->metric_threshold);
   args.Int("--shard-objects", 1, 100000, &params->shard_objects);
   args.Int("--grasps", 1, 1000, &params->analysis.num_grasps);
   args.Int("--robust-samples", 1, 200, &params->analysis.robust_samples);

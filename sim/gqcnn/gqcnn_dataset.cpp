@@ -291,7 +291,7 @@ std::int64_t GqcnnPoseScene::RenderImage(const GqcnnDatasetParams& params, std::
     d.robust_ferrari_canny = p.grasp->robust_ferrari_canny;
     d.ferrari_canny = p.grasp->ferrari_canny;
     d.collision_free = p.grasp->collision_free;
-    d.label = d.collision_free && d.robust_ferrari_canny > gqcnn::kDexNetMetricThreshold;
+    d.label = d.collision_free && d.robust_ferrari_canny > params.metric_threshold;
     d.grasp_index = p.grasp->rank;
     out->push_back(d);
   }
@@ -400,7 +400,24 @@ ObjectOutput GenerateObject(const GqcnnDatasetParams& params, const std::vector<
   out.object.stable_poses = static_cast<int>(a.poses.size());
   out.object.grasps = static_cast<int>(a.grasps.size());
   std::uint32_t image_index = first_image_index;
-  for (int pose = 0; pose < static_cast<int>(a.poses.size()); ++pose) {
+  const int poses = static_cast<int>(a.poses.size());
+  std::vector<int> images_of_pose(static_cast<std::size_t>(poses), params.images_per_pose);
+  if (params.images_per_object > 0) {
+    // Only poses with an aligned grasp give an image with crops: spread the images over those.
+    std::vector<std::size_t> usable;
+    for (std::size_t pose = 0; pose < images_of_pose.size(); ++pose) {
+      const bool any =
+          std::any_of(a.grasps.begin(), a.grasps.end(),
+                      [&](const mesh::AnalysedGrasp& g) { return g.poses[pose].aligned; });
+      if (any) usable.push_back(pose);
+    }
+    std::fill(images_of_pose.begin(), images_of_pose.end(), 0);
+    for (int k = 0; k < params.images_per_object && !usable.empty(); ++k) {
+      ++images_of_pose[usable[static_cast<std::size_t>(k) % usable.size()]];
+    }
+  }
+  for (int pose = 0; pose < poses; ++pose) {
+    if (images_of_pose[static_cast<std::size_t>(pose)] == 0) continue;
     auto scene = MakePoseScene(prepared.value().mesh, a, pose);
     if (!scene.ok()) {
       out.skipped = "pose " + std::to_string(pose) + ": " + scene.error().message;
@@ -408,7 +425,7 @@ ObjectOutput GenerateObject(const GqcnnDatasetParams& params, const std::vector<
       out.images = 0;
       return out;
     }
-    for (int image = 0; image < params.images_per_pose; ++image) {
+    for (int image = 0; image < images_of_pose[static_cast<std::size_t>(pose)]; ++image) {
       const std::size_t before = out.datapoints.size();
       GqcnnImageTiming image_timing;
       const std::int64_t pixels =
@@ -462,6 +479,13 @@ std::optional<core::Error> CheckParams(const GqcnnDatasetParams& p) {
   if (p.out_dir.empty()) return bad("an output folder is required", "out");
   if (p.objects < 1 || p.objects > 10000000)
     return bad("objects must be in 1..10000000", "objects");
+  if (p.images_per_object < 0 || p.images_per_object > 100000) {
+    return bad("images per object must be in 0..100000 (0 = images_per_pose per pose)",
+               "images_per_object");
+  }
+  if (!(p.metric_threshold >= 0.0 && p.metric_threshold < 1.0)) {
+    return bad("the metric threshold must be in [0, 1)", "metric_threshold");
+  }
   if (p.images_per_pose < 1 || p.images_per_pose > 10000) {
     return bad("images per pose must be in 1..10000", "images_per_pose");
   }
@@ -556,6 +580,8 @@ json GqcnnGeneratorJson(const GqcnnDatasetParams& p) {
       {"objects", p.objects},
       {"seed", p.seed},
       {"images_per_pose", p.images_per_pose},
+      {"images_per_object", p.images_per_object},
+      {"metric_threshold", p.metric_threshold},
       {"shard_objects", p.shard_objects},
       {"rescale_min_extent_m", p.rescale_min_extent_m},
       {"grasps_per_object", p.analysis.num_grasps},
@@ -652,6 +678,7 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
 
   GqcnnDatasetResult result;
   result.index.generator = generator;
+  result.index.metric_threshold = params.metric_threshold;
   const auto objects = static_cast<std::uint32_t>(params.objects);
   const auto per_shard = static_cast<std::uint32_t>(params.shard_objects);
   const std::uint32_t shards = (objects + per_shard - 1) / per_shard;

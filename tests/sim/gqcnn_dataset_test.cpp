@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <numbers>
 #include <set>
 #include <string>
@@ -97,8 +98,8 @@ TEST(GqcnnDatasetTest, CubeDatapointsCarryTheAnalysisValuesAndFaceGraspsAreFree)
       EXPECT_EQ(d.robust_ferrari_canny, static_cast<float>(*g.robust_ferrari_canny));
       EXPECT_EQ(d.ferrari_canny, static_cast<float>(g.ferrari_canny));
       EXPECT_EQ(d.collision_free, g.poses[0].collision_free);
-      EXPECT_EQ(d.label, g.poses[0].collision_free &&
-                             *g.robust_ferrari_canny > gqcnn::kDexNetMetricThreshold);
+      EXPECT_EQ(d.label,
+                g.poses[0].collision_free && *g.robust_ferrari_canny > params.metric_threshold);
       EXPECT_EQ(d.grasp_depth_m, d.hand_pose[2]);
       // The camera is 0.65-0.75 m from the table, within 5 degrees of vertical.
       EXPECT_GT(d.grasp_depth_m, 0.60F);
@@ -252,6 +253,39 @@ TEST(GqcnnDatasetTest, SameSeedSameBytesAndADamagedOrDeletedShardIsRegeneratedAl
   for (const std::string& f : files) EXPECT_EQ(Slurp(dir / "a" / f), Slurp(dir / "b" / f)) << f;
 }
 
+// Equal-sized datasets: exactly K images per object whatever its number of stable poses, spread
+// over the poses in turn; labels follow the chosen threshold, which the index records.
+TEST(GqcnnDatasetTest, ImagesPerObjectAndTheLabelThreshold) {
+  const fs::path dir = fs::temp_directory_path() / "gqcnn_dataset_images_per_object";
+  fs::remove_all(dir);
+  GqcnnDatasetParams params = SmallParams(dir / "out");
+  params.images_per_object = 5;
+  params.metric_threshold = 0.0;  // every collision-free grasp with any robust quality
+  auto result = GenerateGqcnnDataset(params);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const gqcnn::DatasetIndex& index = result.value().index;
+  EXPECT_EQ(index.metric_threshold, 0.0);
+  auto reread = gqcnn::ReadIndex(dir / "out");
+  ASSERT_TRUE(reread.ok());
+  EXPECT_EQ(reread.value().metric_threshold, 0.0);
+  ASSERT_EQ(index.objects.size(), 3u);
+  EXPECT_EQ(index.Images(), 3u * 5u);
+  std::map<std::uint32_t, std::set<std::uint32_t>> poses_of_object;
+  for (const gqcnn::ShardEntry& shard : index.shards) {
+    auto records = gqcnn::ReadShard(dir / "out" / shard.file);
+    ASSERT_TRUE(records.ok());
+    for (const gqcnn::GraspDatapoint& d : records.value()) {
+      EXPECT_EQ(d.label, d.collision_free && d.robust_ferrari_canny > 0.0F);
+      poses_of_object[d.object_index].insert(d.pose_index);
+    }
+  }
+  for (const auto& [object, poses] : poses_of_object) {
+    const int stable = index.objects[object].stable_poses;
+    EXPECT_LE(static_cast<int>(poses.size()), std::min(stable, 5)) << object;
+  }
+  fs::remove_all(dir);
+}
+
 TEST(GqcnnDatasetTest, BrokenMeshesAreSkippedWithTheirReason) {
   const testing::TempDir dir("gqcnn-dataset-meshes");
   fs::create_directories(dir / "in");
@@ -300,6 +334,12 @@ TEST(GqcnnDatasetTest, BadParametersAreRefusedWithTheirName) {
   p = SmallParams(dir / "out");
   p.images_per_pose = 0;
   EXPECT_EQ(field_of(p), "images_per_pose");
+  p = SmallParams(dir / "out");
+  p.images_per_object = -1;
+  EXPECT_EQ(field_of(p), "images_per_object");
+  p = SmallParams(dir / "out");
+  p.metric_threshold = -0.1;
+  EXPECT_EQ(field_of(p), "metric_threshold");
   p = SmallParams(dir / "out");
   p.analysis.robust_samples = 0;
   EXPECT_EQ(field_of(p), "robust_samples");
