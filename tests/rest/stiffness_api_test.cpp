@@ -72,9 +72,9 @@ engine::Plan EnginePlan(engine::Strategy strategy, bool mean_stiffness = false) 
   engine::PlanOptions options;
   options.strategy = strategy;
   options.mean_stiffness = mean_stiffness;
-  auto plan =
-      engine::PlanGrasps(Direct().depth, Direct().camera, options,
-                         {testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel()});
+  auto plan = engine::PlanGrasps(
+      Direct().depth, Direct().camera, options,
+      {testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel(), nullptr});
   EXPECT_TRUE(plan.ok()) << plan.error().message;
   return plan.ok() ? std::move(plan).value() : engine::Plan{};
 }
@@ -366,9 +366,9 @@ TEST(GraspsHandlerTest, EveryStrategyAnswersWhatTheEnginePlans) {
     engine::PlanOptions options;
     options.strategy = info.strategy;
     options.report_instances = true;
-    auto plan =
-        engine::PlanGrasps(Direct().depth, Direct().camera, options,
-                           {testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel()});
+    auto plan = engine::PlanGrasps(
+        Direct().depth, Direct().camera, options,
+        {testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel(), nullptr});
     ASSERT_TRUE(plan.ok()) << plan.error().message;
     const auto& expected = plan.value().grasps;
     ASSERT_FALSE(expected.empty());
