@@ -168,14 +168,25 @@ class Planner {
     const double cu = 0.5 * (a.u + b.u);
     const double cv = 0.5 * (a.v + b.v);
     const double length_px = std::hypot(b.u - a.u, b.v - a.v);
+    // The highest surface between the contacts is what the jaws close on: it must be allowed
+    // contact too, or two allowed edge pixels beside an excluded surface (a segmask's outside,
+    // the gripper's own finger nearer than min_depth_m) would grasp that surface.
     double surface = std::numeric_limits<double>::infinity();
+    int surface_u = a.u, surface_v = a.v;
     const int steps = std::max(2, static_cast<int>(std::ceil(length_px)));
     for (int s = 0; s <= steps; ++s) {
       const double t = static_cast<double>(s) / steps;
-      surface = std::min(surface, Depth(static_cast<int>(std::lround(a.u + t * (b.u - a.u))),
-                                        static_cast<int>(std::lround(a.v + t * (b.v - a.v)))));
+      const int u = static_cast<int>(std::lround(a.u + t * (b.u - a.u)));
+      const int v = static_cast<int>(std::lround(a.v + t * (b.v - a.v)));
+      const double depth = Depth(u, v);
+      if (depth < surface) {
+        surface = depth;
+        surface_u = u;
+        surface_v = v;
+      }
     }
     if (!std::isfinite(surface) || surface <= 0.0) return false;
+    if (!ContactAllowed(surface_u, surface_v)) return false;
     out->surface_depth_m = surface;
     out->pose.center_u_px = cu;
     out->pose.center_v_px = cv;

@@ -147,6 +147,19 @@ TEST(GqcnnPolicyTest, ContactsOnlyWhereAllowedAndNothingOnAnEmptyTable) {
   EXPECT_TRUE(masked.value().grasps.empty());
   EXPECT_EQ(masked.value().antipodal_pairs, 0);
 
+  // Only the box's top excluded (as min_depth_m excludes a near finger): the edge pixels on the
+  // table beside it are allowed, but the surface between them is not, so nothing is grasped.
+  core::Scene top_excluded = Prepared(BoxScene(160, 120, 0.09, 0.03, 0.05, 0.0));
+  top_excluded.contact_allowed = cv::Mat1b(top_excluded.depth_filled_m.size(), 255);
+  top_excluded.contact_allowed.setTo(0, top_excluded.depth_filled_m < kTableZ - 0.01);
+  auto top = PlanGqcnnGrasps(top_excluded, TestCamera(), core::Gripper{}, {}, NarrowBandQuality());
+  ASSERT_TRUE(top.ok());
+  for (const auto& g : top.value().grasps) {
+    const int u = static_cast<int>(std::lround(g.grasp.center_u_px));
+    const int v = static_cast<int>(std::lround(g.grasp.center_v_px));
+    EXPECT_NE(top_excluded.contact_allowed(v, u), 0) << "a grasp centred on the excluded box top";
+  }
+
   core::DepthImage flat = BoxScene(160, 120, 0.0, 0.0, 0.0, 0.0);
   int calls = 0;
   auto empty =
