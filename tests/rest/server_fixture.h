@@ -87,6 +87,17 @@ inline std::shared_ptr<const models::SegmentationModel> ShippedSegmentationModel
   return model;
 }
 
+/// The shipped GQ-CNN (models/gqcnn.pt), loaded once per test program; null when none is shipped.
+inline std::shared_ptr<const models::GqcnnModel> ShippedGqcnnModel() {
+  static const std::shared_ptr<const models::GqcnnModel> model =
+      []() -> std::shared_ptr<const models::GqcnnModel> {
+    auto loaded = models::GqcnnModel::Load(std::string(SOFTGRASP_SOURCE_DIR) + "/models/gqcnn.pt");
+    if (!loaded.ok()) return nullptr;
+    return std::make_shared<const models::GqcnnModel>(std::move(loaded).value());
+  }();
+  return model;
+}
+
 /// A running server for one test.
 class RunningServer {
  public:
@@ -94,13 +105,14 @@ class RunningServer {
       config::ServiceConfig config = {}, std::shared_ptr<robot::CommandTracker> robot = nullptr,
       std::function<void(const std::string&)> access_log = nullptr,
       std::shared_ptr<const models::StiffnessModel> stiffness_model = nullptr,
-      std::shared_ptr<const models::SegmentationModel> segmentation_model = nullptr)
+      std::shared_ptr<const models::SegmentationModel> segmentation_model = nullptr,
+      std::shared_ptr<const models::GqcnnModel> gqcnn_model = nullptr)
       : config_(std::move(config)) {
     config_.server.host = "127.0.0.1";
     config_.server.port = 0;
     config_.server.access_log = access_log ? std::move(access_log) : [](const std::string&) {};
     router_ = BuildRouter(config_, std::move(robot), std::move(stiffness_model),
-                          std::move(segmentation_model));
+                          std::move(segmentation_model), std::move(gqcnn_model));
     server_ = std::make_unique<http::Server>(
         config_.server, [this](http::Request& r) { return router_.Dispatch(r); });
     server_->Start();
