@@ -47,13 +47,21 @@ void PlotLossCurves(const std::string& title, const std::vector<int>& steps,
                 cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0});
   }
   cv::putText(img, "step", {w / 2 - 15, h - 12}, cv::FONT_HERSHEY_SIMPLEX, 0.5, {0, 0, 0});
+  // The legend's right edge 10 px inside the image, however long the longest name is.
+  int label_px = 0;
+  for (const LossSeries& s : series) {
+    int baseline = 0;
+    label_px = std::max(
+        label_px, cv::getTextSize(s.name, cv::FONT_HERSHEY_SIMPLEX, 0.45, 1, &baseline).width);
+  }
+  const int label_x = w - 10 - label_px;
   for (std::size_t k = 0; k < series.size(); ++k) {
     std::vector<cv::Point> pts;
     for (std::size_t i = 0; i < smooth[k].size(); ++i) pts.push_back(px(steps[i], smooth[k][i]));
     cv::polylines(img, pts, false, series[k].colour, 1, cv::LINE_AA);
     const int ly = top + 18 + 18 * static_cast<int>(k);
-    cv::line(img, {w - 170, ly - 4}, {w - 145, ly - 4}, series[k].colour, 2);
-    cv::putText(img, series[k].name, {w - 140, ly}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 0});
+    cv::line(img, {label_x - 30, ly - 4}, {label_x - 5, ly - 4}, series[k].colour, 2);
+    cv::putText(img, series[k].name, {label_x, ly}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 0});
   }
   cv::putText(img, title, {left, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, {0, 0, 0});
   cv::imwrite(png.string(), img);
