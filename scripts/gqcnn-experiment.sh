@@ -5,7 +5,7 @@
 # all tested on the same held-out real-object meshes (scripts/heldout-meshes.sh) and, as
 # strategy=gqcnn, in the simulator against FGE on the same scenes.
 #
-#   bash scripts/gqcnn-experiment.sh OUT_DIR        (about 90 min on 2 cores)
+#   bash scripts/gqcnn-experiment.sh OUT_DIR        (about 40 min on 2 cores)
 #
 # Writes OUT_DIR/<source>/ (datasets), OUT_DIR/models/<source>.pt (+ cards and curves),
 # OUT_DIR/eval/<source>.json (held-out classification) and OUT_DIR/picks.json. Every step is
@@ -21,7 +21,8 @@ sim="${SOFTGRASP_SIM:-$root/build/sim/softgrasp-sim}"
 train="${SOFTGRASP_TRAIN:-$root/build/tools/train/softgrasp-train}"
 objects="${GQ_OBJECTS:-150}"          # objects per training set (the thesis' sets: 150)
 images="${GQ_IMAGES:-40}"             # rendered images per object, spread over its stable poses
-steps="${GQ_STEPS:-12000}"            # training steps of batch 64, the same for every set
+steps="${GQ_STEPS:-4000}"             # training steps of batch 64, the same for every set
+threads="${GQ_THREADS:-2}"            # torch threads of the trainings
 heldout_images="${GQ_HELDOUT_IMAGES:-40}"
 pick_scenes="${GQ_PICK_SCENES:-66}"   # single held-out objects (3 per mesh with 22 meshes)
 clutter_scenes="${GQ_CLUTTER_SCENES:-40}"
@@ -67,7 +68,8 @@ for s in $sources; do
   model="$out/models/$s.pt"
   if [ ! -f "$model" ] || [ -f "$out/models/$s.ckpt.running" ]; then
     touch "$out/models/$s.ckpt.running"
-    "$train" gqcnn --data "$out/$s" --out "$model" --steps "$steps" --seed 1 --resume
+    "$train" gqcnn --data "$out/$s" --out "$model" --steps "$steps" --seed 1 --resume \
+      --threads "$threads"
     rm -f "$out/models/$s.ckpt.running"
   fi
   [ -f "$out/eval/$s.json" ] ||
