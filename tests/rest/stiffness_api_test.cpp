@@ -354,10 +354,13 @@ TEST(StiffnessModelConfigTest, DefaultIsTheShippedModelNextToTheExecutable) {
 // frame (the handler decodes, calls the engine and encodes; the evaluation tools call the same
 // engine, tests/models/train_cli_test.cpp).
 TEST(GraspsHandlerTest, EveryStrategyAnswersWhatTheEnginePlans) {
-  const RunningServer server({}, nullptr, nullptr, testing::ShippedStiffnessModel(),
-                             testing::ShippedSegmentationModel());
+  const engine::Models models{testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel(),
+                              testing::ShippedGqcnnModel()};
+  const RunningServer server({}, nullptr, nullptr, models.stiffness, models.segmentation,
+                             models.gqcnn);
   for (const engine::StrategyInfo& info : engine::Strategies()) {
     SCOPED_TRACE(info.name);
+    ASSERT_TRUE(engine::Serves(models, info.strategy)) << "is the model for it shipped?";
     const auto reply = server.Send(MultipartRequest(
         "/v1/grasps", Upload({{"strategy", info.name, ""}, {"instances", "true", ""}})));
     ASSERT_EQ(reply.status, 200) << reply.body;
@@ -366,9 +369,7 @@ TEST(GraspsHandlerTest, EveryStrategyAnswersWhatTheEnginePlans) {
     engine::PlanOptions options;
     options.strategy = info.strategy;
     options.report_instances = true;
-    auto plan = engine::PlanGrasps(
-        Direct().depth, Direct().camera, options,
-        {testing::ShippedStiffnessModel(), testing::ShippedSegmentationModel(), nullptr});
+    auto plan = engine::PlanGrasps(Direct().depth, Direct().camera, options, models);
     ASSERT_TRUE(plan.ok()) << plan.error().message;
     const auto& expected = plan.value().grasps;
     ASSERT_FALSE(expected.empty());

@@ -227,7 +227,7 @@ describe('softgrasp page in chromium', () => {
     // (A segmentation model may be listed too, once one ships: the objects panel's business.)
     assert.deepEqual(info.models.filter((m) => m.kind === 'stiffness').map((m) => [m.name, m.kind]),
       [['pix2stiffness', 'stiffness']]);
-    assert.deepEqual(info.strategies, ['fge', 'stiffness', 'deformability']);
+    assert.deepEqual(info.strategies, ['fge', 'gqcnn', 'stiffness', 'deformability']);
     assert.equal(info.default_strategy, 'deformability');
     // What the model says about the frame, straight from the API: the bar is hard, the floor is
     // background. The page must show exactly that.
@@ -452,7 +452,7 @@ describe('softgrasp page in chromium, server without models', () => {
   let plainBase;
 
   before(async () => {
-    plainServer = startServer({ stiffnessModel: 'none', segmentationModel: 'none' });
+    plainServer = startServer({ stiffnessModel: 'none', segmentationModel: 'none', gqcnnModel: 'none' });
     plainBase = await plainServer.ready;
   });
 

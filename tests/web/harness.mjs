@@ -93,16 +93,18 @@ function startListening(exe, args, { env = {}, what, timeoutMs = 20_000 } = {}) 
  * URL once it prints "listening on http://HOST:PORT". `env` adds settings (SOFTGRASP_ROBOT_...).
  * `stiffnessModel`: a model file, or 'none' to serve without one; unset, the server loads the
  * shipped model next to its executable (<build>/models/pix2stiffness.pt). `segmentationModel`
- * likewise (<build>/models/segmentation.pt when it exists, else the PCL baseline).
+ * likewise (<build>/models/segmentation.pt when it exists, else the PCL baseline), and
+ * `gqcnnModel` (<build>/models/gqcnn.pt when it exists, else strategy=gqcnn is not served).
  */
 export function startServer({
-  timeoutMs = 20_000, env = {}, stiffnessModel, segmentationModel,
+  timeoutMs = 20_000, env = {}, stiffnessModel, segmentationModel, gqcnnModel,
 } = {}) {
   const args = ['--host', '127.0.0.1', '--port', '0', '--workers', '2', '--web-root', paths.webRoot];
   if (stiffnessModel !== undefined) args.push('--stiffness-model', String(stiffnessModel));
   if (segmentationModel !== undefined) {
     args.push('--segmentation-model', String(segmentationModel));
   }
+  if (gqcnnModel !== undefined) args.push('--gqcnn-model', String(gqcnnModel));
   return startListening(paths.server, args, { env, what: 'softgrasp-server', timeoutMs });
 }
 

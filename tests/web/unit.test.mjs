@@ -124,6 +124,8 @@ describe('stiffness view', () => {
     // A default that is not offered, an unknown name, no list, no info.
     assert.equal(strategyChoices({ strategies: ['fge'], default_strategy: 'stiffness' }).selected, 'fge');
     assert.deepEqual(strategyChoices({ strategies: ['new'] }).options, [{ value: 'new', label: 'new' }]);
+    assert.equal(strategyChoices({ strategies: ['fge', 'gqcnn'] }).options[1].label,
+      'GQ-CNN (Dex-Net 2.0 policy)');
     assert.deepEqual(strategyChoices({}).options.map((o) => o.value), ['fge']);
     assert.equal(strategyChoices(null).selected, 'fge');
   });

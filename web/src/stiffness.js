@@ -10,6 +10,7 @@ export function stiffnessModel(info) {
 
 const STRATEGY_LABELS = {
   fge: 'FGE (fast graspability evaluation)',
+  gqcnn: 'GQ-CNN (Dex-Net 2.0 policy)',
   stiffness: 'Stiffness-aware',
   deformability: 'Deformability-aware (one target object)',
 };
