@@ -31,6 +31,9 @@ constexpr std::uint64_t kBootstrapSeed = 1;
 // Dex-Net's object scale (REFERENCE §1.2): the smallest principal extent becomes 4 cm.
 constexpr double kRescaleMinExtentM = 0.04;
 constexpr double kObjectDensityKgM3 = 500.0;
+// Clutter: grasps stay this far inside the bin's inner walls in the image, as in evaluate-tasks
+// (every planner closes on the walls' rims otherwise, and the rims are not objects).
+constexpr int kBinMarginPx = 3;
 
 int Fail(const std::string& message) {
   std::cerr << "softgrasp-train gqcnn-picks: " << message << "\n";
@@ -75,8 +78,8 @@ core::Result<std::shared_ptr<const sim::SimObject>> HeldOutObject(const fs::path
 }
 
 void RunScene(const sim::SimScene& scene, const sim::RenderOptions& render,
-              const sim::RenderedViews& views, const std::vector<Planner>& planners,
-              const core::Gripper& gripper, SceneSet* set) {
+              const sim::RenderedViews& views, const cv::Mat1b& workspace,
+              const std::vector<Planner>& planners, const core::Gripper& gripper, SceneSet* set) {
   auto raycaster = sim::SceneRaycaster::Build(scene);
   for (std::size_t p = 0; p < planners.size(); ++p) {
     Outcomes& out = set->per_planner[p];
@@ -85,6 +88,7 @@ void RunScene(const sim::SimScene& scene, const sim::RenderOptions& render,
     options.gripper = gripper;
     options.fge.top_k = 1;
     options.gqcnn.seed = scene.seed;
+    options.region_of_interest = workspace;
     auto plan = engine::PlanGrasps(views.depth, render.camera, options, planners[p].models);
     out.success.push_back(0.0);
     if (!plan.ok()) {
@@ -244,7 +248,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
       r.noise.seed = scene_seed;
       const sim::RenderedViews views = sim::Render(raycaster.value(), r);
       set.scene_objects.push_back(heldout_names[object]);
-      RunScene(scene, r, views, planners, gripper, &set);
+      RunScene(scene, r, views, cv::Mat1b(), planners, gripper, &set);
       std::cerr << "\rgqcnn-picks: single " << (i + 1) << "/" << single_scenes << std::flush;
     }
     std::cerr << "\n";
@@ -257,6 +261,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
     spec.min_objects = 3;
     spec.max_objects = 8;
     spec.render = render;
+    const cv::Mat1b workspace = sim::BinWorkspaceRoi(spec, spec.render.camera, kBinMarginPx);
     for (int i = 0; i < clutter_scenes; ++i) {
       const std::uint64_t scene_seed =
           sim::SceneSeed(static_cast<std::uint64_t>(seed) + 1000003u, i, sim::ShapeSplit::kVal);
@@ -266,7 +271,8 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
       r.noise.seed = scene_seed;
       set.scene_objects.push_back(std::to_string(generated.value().scene.objects.size()) +
                                   " objects");
-      RunScene(generated.value().scene, r, generated.value().views, planners, gripper, &set);
+      RunScene(generated.value().scene, r, generated.value().views, workspace, planners, gripper,
+               &set);
       std::cerr << "\rgqcnn-picks: clutter " << (i + 1) << "/" << clutter_scenes << std::flush;
     }
     std::cerr << "\n";
