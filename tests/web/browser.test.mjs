@@ -245,7 +245,7 @@ describe('softgrasp page in chromium', () => {
     }));
     // With the segmentation model shipped too, deformability is preselected; pick stiffness.
     assert.deepEqual(strategy,
-      { options: ['fge', 'stiffness', 'deformability'], value: 'deformability' });
+      { options: ['fge', 'gqcnn', 'stiffness', 'deformability'], value: 'deformability' });
     await page.selectOption('#strategy', 'stiffness');
     assert.equal(await page.isVisible('#target-policy-field'), false);
     assert.equal(await page.isVisible('#picture-choice'), false, 'no view switch before results');
