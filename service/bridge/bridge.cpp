@@ -454,7 +454,12 @@ core::Result<int> RobotEndpoint::TakeOneCommand(std::optional<GraspCommand>* com
 
   // A retired command (instance-state change only), or one for another robot: not ours.
   if (!valid_data || (!target.empty() && target != robot_id_)) return 1;
-  if (id.empty() || delivered_.count(id) != 0) return 1;
+  if (id.empty()) return 1;
+  if (delivered_.count(id) != 0) {
+    auto rewritten = RewriteKeptResult(id);
+    if (!rewritten) return rewritten.error();
+    return 1;
+  }
   delivered_.insert(id);
   delivered_order_.push_back(id);
   if (delivered_order_.size() > kMaxRememberedCommands) {
@@ -473,6 +478,17 @@ core::Result<int> RobotEndpoint::TakeOneCommand(std::optional<GraspCommand>* com
   }
   *command = std::move(parsed).value();
   return 1;
+}
+
+core::Result<Ok> RobotEndpoint::RewriteKeptResult(const std::string& command_id) {
+  std::lock_guard<std::mutex> lock(results_mutex_);
+  const auto it = std::find_if(kept_results_.rbegin(), kept_results_.rend(),
+                               [&](const GraspResult& r) { return r.command_id == command_id; });
+  if (it == kept_results_.rend()) return Ok{};  // still running, or forgotten
+  auto sample = ToC(*it);
+  const dds_return_t rc = dds_write(result_writer_.get(), sample.get());
+  if (rc < 0) return DdsError(rc, "dds_write(grasp_result " + command_id + ")");
+  return Ok{};
 }
 
 core::Result<std::optional<GraspCommand>> RobotEndpoint::WaitForCommand(double timeout_s) {
@@ -508,10 +524,11 @@ core::Result<Ok> RobotEndpoint::PublishResult(GraspResult result) {
   const dds_return_t rc = dds_write(result_writer_.get(), sample.get());
   if (rc < 0) return DdsError(rc, "dds_write(grasp_result " + valid.value().command_id + ")");
   // Keep the newest results for services that (re)join; drop the oldest beyond the limit.
-  kept_results_.push_back(valid.value().command_id);
+  kept_results_.push_back(std::move(valid).value());
   while (kept_results_.size() > static_cast<std::size_t>(options_.max_kept_results)) {
-    auto dropped = UnregisterById<GraspResult>(result_writer_.get(), kept_results_.front(),
-                                               "dds_unregister_instance(grasp_result)");
+    auto dropped =
+        UnregisterById<GraspResult>(result_writer_.get(), kept_results_.front().command_id,
+                                    "dds_unregister_instance(grasp_result)");
     kept_results_.pop_front();
     if (!dropped) return dropped.error();
   }

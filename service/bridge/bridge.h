@@ -144,6 +144,9 @@ class RobotEndpoint {
 
   /// Waits up to `timeout_s` for the next command addressed to this robot or to any robot.
   /// Commands for other robots, repeats of an id already delivered, and retirements are skipped.
+  /// A repeat of an id whose result is still kept writes that result again: a service that sends
+  /// an id another service already had executed (replicas behind a balancer) hears its outcome
+  /// instead of waiting for one that will never come, and the robot does not move twice.
   /// An invalid command (NaN, bad quaternion, ...) is answered with a REJECTED result here and
   /// not returned. Returns nullopt on timeout.
   core::Result<std::optional<GraspCommand>> WaitForCommand(double timeout_s);
@@ -164,6 +167,8 @@ class RobotEndpoint {
   /// Takes at most one command sample (returns how many: 0 or 1) and sets `command` if it is a
   /// new, valid command for this robot.
   core::Result<int> TakeOneCommand(std::optional<GraspCommand>* command);
+  /// Writes the kept result of `command_id` again, if there is one.
+  core::Result<Ok> RewriteKeptResult(const std::string& command_id);
 
   BridgeOptions options_;
   std::string robot_id_;
@@ -171,8 +176,8 @@ class RobotEndpoint {
   std::mutex status_mutex_;  // guards status_ and the write order of heartbeats
   RobotStatus status_;
   std::mutex results_mutex_;
-  std::deque<std::string> kept_results_;
-  std::mutex commands_mutex_;  // one WaitForCommand at a time
+  std::deque<GraspResult> kept_results_;  // oldest first, at most options_.max_kept_results
+  std::mutex commands_mutex_;             // one WaitForCommand at a time
   std::set<std::string> delivered_;
   std::deque<std::string> delivered_order_;
 

@@ -289,6 +289,43 @@ TEST(BridgeLoopback, RobotsSkipOtherRobotsCommandsAndRepeatedIds) {
   EXPECT_EQ(next.value()->command_id, "marker");
 }
 
+// Two service replicas behind a balancer: a client's retry of an id can reach the replica that
+// did not send it first. The robot runs the id once and writes its kept result again for the
+// second sender, which would otherwise wait for a result that never comes.
+TEST(BridgeLoopback, AnIdSentByTwoServicesMovesTheRobotOnceAndBothHearTheResult) {
+  auto first = MakeService();
+  auto second = MakeService();
+  auto robot = MakeRobot("arm-1");
+  ASSERT_TRUE(first && second && robot);
+  ASSERT_TRUE(first->Publish(MakeCommand("shared-id", "")).ok());
+  auto c = robot->WaitForCommand(5.0);
+  ASSERT_TRUE(c.ok() && c.value().has_value());
+  EXPECT_EQ(c.value()->command_id, "shared-id");
+  GraspResult done;
+  done.command_id = "shared-id";
+  done.outcome = GraspOutcome::kSucceeded;
+  done.reason = "held";
+  ASSERT_TRUE(robot->PublishResult(done).ok());
+  ASSERT_TRUE(first->WaitForResult("shared-id", 5.0).has_value());
+  // The second replica saw that result while it knew nothing of the id (its tracker drops such
+  // results); drain it, as the tracker does.
+  ASSERT_GE(WaitUntil([&] { return !second->TakeResults().empty(); }, 5.0), 0.0);
+
+  // The client's retry reaches the second replica, which sends the id again, then another.
+  // The robot does not get the repeat: the next command it is given is the one sent after it.
+  ASSERT_TRUE(second->Publish(MakeCommand("shared-id", "")).ok());
+  ASSERT_TRUE(second->Publish(MakeCommand("marker", "")).ok());
+  auto next = robot->WaitForCommand(5.0);
+  ASSERT_TRUE(next.ok() && next.value().has_value());
+  EXPECT_EQ(next.value()->command_id, "marker");
+  // Seeing the repeat, it wrote the kept result again, and the second replica hears it.
+  auto heard = second->WaitForResult("shared-id", 5.0);
+  ASSERT_TRUE(heard.has_value());
+  EXPECT_EQ(heard->outcome, GraspOutcome::kSucceeded);
+  EXPECT_EQ(heard->reason, "held");
+  EXPECT_EQ(heard->robot_id, "arm-1");
+}
+
 TEST(BridgeLoopback, NothingIsSentForAnInvalidCommand) {
   auto service = MakeService();
   auto robot = MakeRobot("arm-1");
