@@ -1,22 +1,45 @@
 #!/usr/bin/env bash
 # Installs the Debian packages softgrasp needs, only those missing. Idempotent; run as root.
 # Never purges or autoremoves: on these images that cascades into libraries we need.
+#
+# usage: setup.sh            everything: build, tests, benchmarks, container images
+#        setup.sh --build    only what compiling softgrasp and its page needs (the build stage
+#                            of docker/Dockerfile)
 set -euo pipefail
+
+profile=all
+case "${1:-}" in
+  "") ;;
+  --build) profile=build ;;
+  *)
+    echo "setup: unknown argument '$1' (usage: setup.sh [--build])" >&2
+    exit 2
+    ;;
+esac
 
 PACKAGES=(
   # toolchain
-  build-essential cmake ninja-build ccache pkg-config git curl ca-certificates clang clang-format libclang-rt-14-dev
+  build-essential cmake ninja-build ccache pkg-config git curl ca-certificates
   # libraries of the service, the simulator and the models
   libopencv-dev libeigen3-dev nlohmann-json3-dev libtiff-dev libpng-dev zlib1g-dev libyaml-cpp-dev
   cyclonedds-dev cyclonedds-tools libembree-dev libpcl-dev libbullet-dev libtorch-dev libcgal-dev
   libqhull-dev libfcl-dev libglpk-dev
-  # tests and benchmarks; chromium drives the browser tests of the web page (tests/web)
-  libgtest-dev libgmock-dev libbenchmark-dev chromium
-  # the two-host test (tests/netns): network namespaces and veth pairs, HTTP and JSON in bash
-  iproute2 jq
-  # the HTTP benchmark (scripts/bench-http.sh): nginx as the baseline, wrk as the load
-  nginx-light wrk
 )
+if [ "$profile" = all ]; then
+  PACKAGES+=(
+    # clang: the fuzz targets and the formatting check
+    clang clang-format libclang-rt-14-dev
+    # tests and benchmarks; chromium drives the browser tests of the web page (tests/web)
+    libgtest-dev libgmock-dev libbenchmark-dev chromium
+    # the two-host test (tests/netns): network namespaces and veth pairs, HTTP and JSON in bash
+    iproute2 jq
+    # the HTTP benchmark (scripts/bench-http.sh): nginx as the baseline, wrk as the load
+    nginx-light wrk
+    # container images (scripts/images.sh: a Debian base by debootstrap, images by buildah) and
+    # their tests (tests/containers: HAProxy balances the service replicas)
+    buildah debootstrap haproxy
+  )
+fi
 # node and npm bundle the web page (scripts/build.sh). Any node >= 18 will do: Debian's nodejs and
 # npm are added only when no node is on the PATH, so a newer one already installed is kept.
 if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
@@ -41,7 +64,7 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 echo "setup: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
-# Packages with a daemon (nginx) must not start it: a policy that refuses service starts, kept
+# Packages with a daemon (nginx, haproxy) must not start it: a policy that refuses service starts, kept
 # only for this install when the machine has none of its own.
 policy=/usr/sbin/policy-rc.d
 own_policy=0

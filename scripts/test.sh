@@ -1,12 +1,20 @@
 #!/usr/bin/env bash
-# Installs what is missing, checks the C++ formatting (clang-format), builds, and runs the whole
-# test suite (unit, integration, contract, fuzz-corpus replay, the page in headless chromium), then an ASan+UBSan build of the HTTP and
-# codec tests and a ThreadSanitizer build of the server and robot-command tests.
+# Installs what is missing, checks the C++ formatting (clang-format), builds, builds the container
+# images, and runs the whole test suite (unit, integration, contract, fuzz-corpus replay, the page
+# in headless chromium, the images as hosts in network namespaces), then an ASan+UBSan build of
+# the HTTP and codec tests and a ThreadSanitizer build of the server and robot-command tests.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$root/scripts/setup.sh"
 bash "$root/scripts/check-format.sh"
 bash "$root/scripts/build.sh"
+# The container images (docker/Dockerfile: service, robot, worker) for the container tests (label
+# "containers"): buildah on a Debian base made here by debootstrap, the host's ccache mounted, so
+# this takes minutes only when the sources changed (docs/containers.md). Needs root.
+# SOFTGRASP_CONTAINERS_SKIP=1 skips the images and those tests.
+if [ "${SOFTGRASP_CONTAINERS_SKIP:-0}" != 1 ]; then
+  bash "$root/scripts/images.sh"
+fi
 ctest --test-dir "${SOFTGRASP_BUILD_DIR:-$root/build}" -j "$(nproc)" --output-on-failure
 
 # The code that reads bytes from outside (HTTP parsing, static files, image and mesh decoders, the
