@@ -40,8 +40,12 @@ core::Result<std::filesystem::path> GenerateFractalBatch(
     return MakeError(ErrorCode::kInvalidArgument,
                      "cannot create " + params.out_dir.string() + ": " + ec.message(), "out");
   }
+  if (const std::string bad = cli::CheckArrayTask(params.task, params.count); !bad.empty()) {
+    return MakeError(ErrorCode::kInvalidArgument, bad, "task");
+  }
+  const cli::ItemRange items = cli::TaskItems(params.task, params.count);
   json models = json::array();
-  for (int i = 0; i < params.count; ++i) {
+  for (int i = items.first; i < items.end; ++i) {
     mesh::FractalParams p = params.model;
     p.seed = params.seed + static_cast<std::uint64_t>(i);
     auto model = mesh::GenerateFractal(p);
@@ -53,7 +57,7 @@ core::Result<std::filesystem::path> GenerateFractalBatch(
       return MakeError(ErrorCode::kInvalidArgument, error->message, "out");
     }
     models.push_back(Entry(file, p.seed, model.value()));
-    if (progress) progress(i + 1);
+    if (progress) progress(i + 1 - items.first);
   }
   const json index = {{"generator", "softgrasp 3D-IFS + alpha shape"},
                       {"format", mesh::MeshFormatName(params.format)},
@@ -66,11 +70,7 @@ core::Result<std::filesystem::path> GenerateFractalBatch(
                       {"gripper_opening_m", params.model.gripper_opening_m},
                       {"fit_fraction", params.model.fit_fraction},
                       {"models", models}};
-  const std::filesystem::path index_path = params.out_dir / "index.json";
-  if (auto error = cli::WriteFile(index_path, index.dump(2) + "\n")) {
-    return MakeError(ErrorCode::kInvalidArgument, error->message, "out");
-  }
-  return index_path;
+  return cli::WriteTaskIndex(params.out_dir, index, params.task, items, "models");
 }
 
 }  // namespace softgrasp::sim

@@ -1,7 +1,7 @@
 // softgrasp-sim: the simulator's command line: `generate` (datasets of simulated scenes),
 // `fractals` (batches of fractal training meshes), `mesh-grasps` (Dex-Net style grasp analyses
-// of mesh files), `gqcnn-dataset` (Dex-Net 2.0 style GQ-CNN training data) and `robot` (a
-// simulated robot on the DDS bus).
+// of mesh files), `gqcnn-dataset` (Dex-Net 2.0 style GQ-CNN training data), `robot` (a
+// simulated robot on the DDS bus) and `merge-tasks` (the index of a batch made by array tasks).
 // Parsing only; the work is in the libraries.
 #include <iostream>
 #include <memory>
@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "service/cli/args.h"
+#include "service/cli/array_tasks.h"
 #include "service/cli/files.h"
 #include "service/io/depth_codec.h"
 #include "sim/dataset/dataset.h"
@@ -32,6 +33,7 @@ constexpr const char* kUsage =
     "                              [--fractals P] [--fractal-stiffness K] [--shard-size N]\n"
     "                              [--user-mesh PATH[:K|:STIFFNESS.json]]...\n"
     "                              [--camera-height M] [--intrinsics FILE.intr]\n"
+    "                              [--task K --tasks N]\n"
     "  Simulated scenes (catalogue objects dropped with Bullet, rendered with Embree): 16-bit\n"
     "  depth (mm), 8-bit stiffness and deformability, 16-bit instance labels and one JSON\n"
     "  manifest per scene, in shards, plus index.json (docs/simulator.md). Defaults: objects\n"
@@ -46,7 +48,16 @@ constexpr const char* kUsage =
     "usage: softgrasp-sim fractals --count N --seed S --out DIR [--alpha A] [--sigma S]\n"
     "                              [--points P] [--maps MIN-MAX] [--format F]\n"
     "  F: obj (default), ply, ply_ascii, ply_binary, stl, stl_ascii, stl_binary.\n"
+    "                              [--task K --tasks N]\n"
     "  Writes fractal_<seed>.<ext> for seeds S..S+N-1 and index.json (docs/fractals.md).\n"
+    "\n"
+    "  --task K --tasks N (generate, fractals): make only part K (0-based) of N of the batch\n"
+    "  and a partial index DIR/index.task-K-of-N.json, for array jobs (Slurm: K =\n"
+    "  $SLURM_ARRAY_TASK_ID). Every file is the same bytes whatever the split.\n"
+    "\n"
+    "usage: softgrasp-sim merge-tasks DIR\n"
+    "  Merges the N partial indexes of DIR into DIR/index.json, the same bytes as one process\n"
+    "  would write; names the tasks whose index is missing (re-run them alone). docs/slurm.md.\n"
     "\n"
     "usage: softgrasp-sim mesh-grasps MESH... --out DIR [--unit m|mm] [--rescale-mm X]\n"
     "                                 [--grasps N] [--robust-samples N] [--seed S]\n"
@@ -75,6 +86,20 @@ constexpr const char* kUsage =
     "  Ferrari-Canny (0.002 = Dex-Net's literal rule; see the doc), 10 objects per\n"
     "  shard, 100 grasps, 25 robust samples, noise on, no preview (N crops of the first\n"
     "  shard as DIR/previews/crops.png).\n";
+
+// --task K --tasks N: both or neither.
+void ParseArrayTask(cli::Args& args, cli::ArrayTask* task) {
+  const bool has_task = args.Int("--task", 0, 1000000, &task->index);
+  const bool has_tasks = args.Int("--tasks", 1, 1000000, &task->count);
+  if (has_task != has_tasks) args.Fail("--task K and --tasks N go together", "--task");
+}
+
+// Progress bar length: the items of this task (the batch's whole count without --tasks).
+int TaskItemCount(const cli::ArrayTask& task, int items) {
+  if (!cli::CheckArrayTask(task, items).empty()) return items;
+  const cli::ItemRange range = cli::TaskItems(task, items);
+  return range.end - range.first;
+}
 
 // Returns an error message, or "" when `params` is filled.
 std::string ParseGenerateArgs(std::vector<std::string> argv, sim::DatasetParams* params) {
@@ -106,6 +131,7 @@ std::string ParseGenerateArgs(std::vector<std::string> argv, sim::DatasetParams*
     params->spec.render.world_from_camera = sim::OverheadCameraPose(camera_height);
   }
   args.Int("--shard-size", 1, 100000, &params->shard_size);
+  ParseArrayTask(args, &params->task);
   std::string intrinsics;
   args.Text("--intrinsics", &intrinsics);
   const std::vector<std::string> user_meshes = args.All("--user-mesh");
@@ -136,7 +162,7 @@ int RunGenerate(const std::vector<std::string>& args) {
     std::cerr << "softgrasp-sim generate: " << problem << "\n" << kUsage;
     return 2;
   }
-  sim::ProgressBar bar("scenes", params.scenes);
+  sim::ProgressBar bar("scenes", TaskItemCount(params.task, params.scenes));
   auto index = sim::GenerateDataset(params, [&bar](int done) { bar.Update(done); });
   if (!index.ok()) {
     std::cerr << "softgrasp-sim generate: " << index.error().message << "\n";
@@ -158,6 +184,7 @@ std::string ParseFractalsArgs(std::vector<std::string> argv, sim::FractalBatchPa
   args.Number("--sigma", cli::Bounds::Any(), &params->model.sigma);
   args.Int("--points", 1, 100000000, &params->model.num_points);
   args.Span("--maps", 1, 32, &params->model.min_maps, &params->model.max_maps);
+  ParseArrayTask(args, &params->task);
   std::string format;
   if (args.Text("--format", &format)) {
     if (const auto parsed = mesh::MeshFormatFromName(format)) {
@@ -179,10 +206,24 @@ int RunFractals(const std::vector<std::string>& args) {
     std::cerr << "softgrasp-sim fractals: " << problem << "\n" << kUsage;
     return 2;
   }
-  sim::ProgressBar bar("fractals", params.count);
+  sim::ProgressBar bar("fractals", TaskItemCount(params.task, params.count));
   auto index = sim::GenerateFractalBatch(params, [&bar](int done) { bar.Update(done); });
   if (!index.ok()) {
     std::cerr << "softgrasp-sim fractals: " << index.error().message << "\n";
+    return 1;
+  }
+  std::cout << index.value().string() << "\n";
+  return 0;
+}
+
+int RunMergeTasks(const std::vector<std::string>& args) {
+  if (args.size() != 1 || args[0].empty() || args[0][0] == '-') {
+    std::cerr << "softgrasp-sim merge-tasks: give the batch's folder, and nothing else\n" << kUsage;
+    return 2;
+  }
+  auto index = cli::MergeTaskIndexes(args[0]);
+  if (!index.ok()) {
+    std::cerr << "softgrasp-sim merge-tasks: " << index.error().message << "\n";
     return 1;
   }
   std::cout << index.value().string() << "\n";
@@ -349,6 +390,7 @@ int main(int argc, char** argv) {
   }
   if (args[0] == "generate") return RunGenerate({args.begin() + 1, args.end()});
   if (args[0] == "fractals") return RunFractals({args.begin() + 1, args.end()});
+  if (args[0] == "merge-tasks") return RunMergeTasks({args.begin() + 1, args.end()});
   if (args[0] == "mesh-grasps") return RunMeshGrasps({args.begin() + 1, args.end()});
   if (args[0] == "gqcnn-dataset") return RunGqcnnDataset({args.begin() + 1, args.end()});
   if (args[0] == "robot") return sim::RunRobotCommand({args.begin() + 1, args.end()});

@@ -101,9 +101,13 @@ core::Result<std::filesystem::path> GenerateDataset(const DatasetParams& params,
     return MakeError(ErrorCode::kInvalidArgument, "shard_size must be in 1..100000", "shard_size");
   }
   if (auto invalid = ValidateSceneSpec(params.spec)) return *invalid;
+  if (const std::string bad = cli::CheckArrayTask(params.task, params.scenes); !bad.empty()) {
+    return MakeError(ErrorCode::kInvalidArgument, bad, "task");
+  }
+  const cli::ItemRange items = cli::TaskItems(params.task, params.scenes);
 
   json scenes = json::array();
-  for (int i = 0; i < params.scenes; ++i) {
+  for (int i = items.first; i < items.end; ++i) {
     const std::string shard = Numbered("shard_", 4, i / params.shard_size);
     const std::string stem = Numbered("scene_", 6, i);
     const std::filesystem::path dir = params.out_dir / shard;
@@ -123,7 +127,7 @@ core::Result<std::filesystem::path> GenerateDataset(const DatasetParams& params,
     scenes.push_back({{"manifest", shard + "/" + stem + ".json"},
                       {"scene_seed", scene_seed},
                       {"categories", categories}});
-    if (progress) progress(i + 1);
+    if (progress) progress(i + 1 - items.first);
   }
   const SceneSpec& spec = params.spec;
   const json index = {
@@ -142,11 +146,9 @@ core::Result<std::filesystem::path> GenerateDataset(const DatasetParams& params,
       {"spec", SceneSpecToJson(spec)},
       {"entries", scenes},
   };
-  const std::filesystem::path index_path = params.out_dir / "index.json";
-  if (auto error = cli::WriteFile(index_path, index.dump(2) + "\n")) {
-    return MakeError(ErrorCode::kInvalidArgument, error->message, "out");
-  }
-  return index_path;
+  std::error_code ec;
+  std::filesystem::create_directories(params.out_dir, ec);  // a task may have no shard folder
+  return cli::WriteTaskIndex(params.out_dir, index, params.task, items, "entries");
 }
 
 }  // namespace softgrasp::sim

@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 
+#include "service/cli/array_tasks.h"
 #include "service/core/status.h"
 #include "sim/dataset/scene_gen.h"
 
@@ -22,6 +23,9 @@ struct DatasetParams {
   int shard_size = 100;  ///< scenes per shard folder; 1..100000
   SceneSpec spec;
   std::filesystem::path out_dir;
+  /// Task K of N makes only its part of the scenes and a partial index (service/cli/array_tasks.h);
+  /// merging the N partial indexes gives the index.json of one process. Default: the whole batch.
+  cli::ArrayTask task;
 };
 
 /// Depth in metres -> 16-bit millimetres (rounded; NaN, <= 0 and > 65.535 m become 0).
@@ -34,9 +38,10 @@ std::optional<core::Error> WriteSceneFiles(const SceneSpec& spec, const Generate
                                            const std::filesystem::path& dir,
                                            const std::string& stem);
 
-/// Generates `scenes` scenes and writes them with an index.json; `progress(done)` after each.
-/// Same params -> the same bytes. Errors: kInvalidArgument (bad params, unwritable folder),
-/// or the first scene error.
+/// Generates `scenes` scenes (task K of N: its part of them) and writes them with an index.json
+/// (a partial index for N > 1); `progress(done)` after each. Same params -> the same bytes, and
+/// every scene's bytes do not depend on the split into tasks. Errors: kInvalidArgument (bad params,
+/// unwritable folder), or the first scene error.
 core::Result<std::filesystem::path> GenerateDataset(
     const DatasetParams& params, const std::function<void(int done)>& progress = {});
 

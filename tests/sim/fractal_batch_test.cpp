@@ -52,6 +52,31 @@ TEST(FractalBatchTest, WritesClosedMeshesAndAnIndex) {
   }
 }
 
+// Array tasks (Slurm): two tasks then a merge give one process's files and index, byte for byte.
+TEST(FractalBatchTest, ArrayTasksMergeIntoTheBytesOfOneProcess) {
+  FractalBatchParams params;
+  params.count = 5;
+  params.seed = 40;
+  params.model.num_points = 3000;
+  params.out_dir = FreshDir("tasks_whole");
+  ASSERT_TRUE(GenerateFractalBatch(params).ok());
+  params.out_dir = FreshDir("tasks_split");
+  for (int k : {1, 0}) {
+    params.task = {k, 2};
+    ASSERT_TRUE(GenerateFractalBatch(params).ok());
+  }
+  ASSERT_TRUE(cli::MergeTaskIndexes(params.out_dir).ok());
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(FreshDir("tasks_whole"))) {
+    const fs::path twin = params.out_dir / entry.path().filename();
+    EXPECT_EQ(Slurp(entry.path()), Slurp(twin)) << entry.path().filename();
+    ++files;
+  }
+  EXPECT_EQ(files, 6);  // 5 meshes and index.json
+  params.task = {0, 6};
+  EXPECT_EQ(GenerateFractalBatch(params).error().field, "task");
+}
+
 TEST(FractalBatchTest, BadParametersAreErrors) {
   FractalBatchParams params;
   params.out_dir = FreshDir("bad");

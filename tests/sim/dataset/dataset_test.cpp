@@ -217,6 +217,34 @@ TEST(Encodings, DepthInMillimetresAndUnitMapsInBytes) {
   EXPECT_EQ(bytes(0, 3), 255);
 }
 
+// Array tasks (Slurm): three tasks, run in any order into one folder, then merged, give the
+// files and the index of one process byte for byte; a task beyond N is refused.
+TEST(GenerateDataset, ArrayTasksMergeIntoTheBytesOfOneProcess) {
+  DatasetParams params;
+  params.scenes = 4;
+  params.seed = 21;
+  params.shard_size = 3;
+  params.spec = SmallSpec();
+  params.out_dir = FreshDir("whole");
+  ASSERT_TRUE(GenerateDataset(params).ok());
+  const fs::path split = FreshDir("split");
+  params.out_dir = split;
+  for (int k : {2, 0, 1}) {
+    params.task = {k, 3};
+    int done = 0;
+    auto index = GenerateDataset(params, [&done](int d) { done = d; });
+    ASSERT_TRUE(index.ok()) << index.error().message;
+    EXPECT_EQ(index.value().filename(), "index.task-" + std::to_string(k) + "-of-3.json");
+    EXPECT_EQ(done, k == 2 ? 2 : 1);  // 4 scenes: 1 + 1 + 2
+  }
+  ASSERT_TRUE(cli::MergeTaskIndexes(split).ok());
+  auto merged = Snapshot(split);
+  for (int k = 0; k < 3; ++k) merged.erase("index.task-" + std::to_string(k) + "-of-3.json");
+  EXPECT_EQ(merged, Snapshot(FreshDir("whole")));
+  params.task = {3, 3};
+  EXPECT_EQ(GenerateDataset(params).error().field, "task");
+}
+
 TEST(GenerateDataset, WritesShardsThatDecodeAndRepeatByteForByte) {
   DatasetParams params;
   params.scenes = 3;
