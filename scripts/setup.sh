@@ -38,6 +38,8 @@ if [ "$profile" = all ]; then
     # container images (scripts/images.sh: a Debian base by debootstrap, images by buildah) and
     # their tests (tests/containers: HAProxy balances the service replicas)
     buildah debootstrap haproxy
+    # datasets on Slurm (tests/slurm starts a one-node cluster; scripts/slurm-batch.sh)
+    slurmctld slurmd slurm-client munge
   )
 fi
 # node and npm bundle the web page (scripts/build.sh). Any node >= 18 will do: Debian's nodejs and
