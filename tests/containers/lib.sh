@@ -14,6 +14,7 @@
 #                                    runs the image's entry point with ARGS (else its CMD)
 #   ct_daemon NAME CMD...            runs a machine program in NAME's namespace in the background
 #   ct_stop NAME [SIGNAL]            SIGTERM (default) or SIGKILL to the program, then waits
+#                                    (SIGKILL: the whole container, as docker kill)
 #   ct_in NAME CMD...                runs a machine command in NAME's network namespace
 #   ct_ip NAME                       NAME's address
 #   ct_log NAME                      path of NAME's combined output
@@ -37,7 +38,9 @@ ct_cleanup() {
   set +e  # tear everything down whatever fails (a killed program's wait status is not an error)
   for name in "${CT_NAMES[@]}"; do
     pid="${CT_PID[$name]:-}"
-    [ -n "$pid" ] && kill -KILL "$pid" 2>/dev/null
+    [ -n "$pid" ] || continue
+    [ -n "${CT_ROOT[$name]:-}" ] && kill -KILL "$(ct_main_pid "$name")" 2>/dev/null
+    kill -KILL "$pid" 2>/dev/null
   done
   for name in "${CT_NAMES[@]}"; do
     pid="${CT_PID[$name]:-}"
@@ -188,11 +191,12 @@ ct_main_pid() { pgrep -P "${CT_PID[$1]}" | head -n 1; }
 ct_stop() {
   local name="$1" signal="${2:-TERM}" pid="${CT_PID[$1]:-}" child
   [ -n "$pid" ] || return 0
-  if [ "$signal" = KILL ]; then
-    kill -KILL "$pid" 2>/dev/null || true  # unshare --kill-child takes the container's processes along
-  elif [ -z "${CT_ROOT[$name]:-}" ]; then
+  if [ -z "${CT_ROOT[$name]:-}" ]; then
     kill "-$signal" "$pid" 2>/dev/null || true  # a machine program (ct_daemon)
   else
+    # The program is PID 1 of the container's PID namespace: when it dies, the kernel kills
+    # everything else in it, as `docker kill` does. (Killing unshare would not do: the program
+    # changed its user, which clears the parent-death signal --kill-child relies on.)
     child="$(ct_main_pid "$name")"
     [ -n "$child" ] && { kill "-$signal" "$child" 2>/dev/null || true; }
   fi

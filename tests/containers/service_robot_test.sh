@@ -92,6 +92,7 @@ body="$(jq -c --arg id "$id" '.grasps[0] + {id: $id}' "$CT_WORK/grasps.json")"
 status="$(post "$id" "$body")"
 [ "$status" = 202 ] || ct_fail "POST /v1/robot/grasps answered $status: $(cat "$CT_WORK/post.json")"
 ct_stop service KILL
+! ct_in client curl -s -m 2 -o /dev/null http://service:8080/healthz || ct_fail "the killed service still answers"
 ct_log_line "service killed (SIGKILL) right after it accepted $id; robot runs of it so far: $(runs "$id")"
 start_service
 ct_wait_http client http://service:8080/healthz 60
