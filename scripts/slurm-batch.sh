@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
-# Runs a softgrasp-sim batch command (generate, fractals) as a Slurm array job of N tasks, waits
-# for it, and merges the tasks' partial indexes into DIR/index.json: the same bytes, file for
-# file, as one process with the same arguments. A failed task is named with its log; re-run it
+# Runs a softgrasp-sim batch command (generate, fractals, gqcnn-dataset) as a Slurm array job of
+# N tasks, waits for it, and merges the tasks' partial indexes into DIR/index.json: the same
+# bytes, file for file, as one process with the same arguments. A failed task is named with its log; re-run it
 # alone with --only K (the finished tasks are kept). DIR and the softgrasp-sim executable must be
 # on a file system every node sees. docs/slurm.md.
 #
 # usage: slurm-batch.sh --tasks N [--only K,L,...] [--sim PATH] [--sbatch-arg ARG]... \
-#          -- generate|fractals ARGS... --out DIR
+#          -- generate|fractals|gqcnn-dataset ARGS... --out DIR
 #   --tasks N         the batch's split (the same N for every run of one batch)
 #   --only K,L        run only these tasks (e.g. the failed ones), then merge if all are done
 #   --sim PATH        softgrasp-sim (default: build/sim/softgrasp-sim of this checkout, else PATH)
@@ -16,7 +16,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 usage() {
-  sed -n '9,17p' "$0" | sed 's/^# \{0,1\}//' >&2
+  sed -n '8,15p' "$0" | sed 's/^# \{0,1\}//' >&2
   exit 2
 }
 log() { echo "slurm-batch: $*" >&2; }
@@ -36,7 +36,10 @@ done
 command="$1"
 shift
 args=("$@")
-case "$command" in generate | fractals) ;; *) log "only generate and fractals run as array jobs"; usage ;; esac
+case "$command" in
+  generate | fractals | gqcnn-dataset) ;;
+  *) log "only generate, fractals and gqcnn-dataset run as array jobs"; usage ;;
+esac
 [[ "$tasks" =~ ^[1-9][0-9]*$ ]] || { log "--tasks N is required (N >= 1)"; usage; }
 for a in "${args[@]}"; do
   case "$a" in --task | --tasks) log "give --tasks to slurm-batch.sh, not to $command"; usage ;; esac
@@ -109,6 +112,10 @@ if [ -n "$failed" ]; then
   exit 1
 fi
 "$sim" merge-tasks "$out" >/dev/null
-mv "$out"/index.task-*-of-"$tasks".json "$state"/
+# The folder now holds what one process writes; the tasks' partial files go beside the logs.
+shopt -s nullglob
+for f in "$out"/index.task-*-of-"$tasks".json "$out"/skipped.task-*-of-"$tasks".json; do
+  mv "$f" "$state"/
+done
 log "all $tasks tasks done in $((SECONDS - started)) s; merged $out/index.json"
 echo "$out/index.json"

@@ -5,6 +5,7 @@
 // Parsing only; the work is in the libraries.
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -51,7 +52,8 @@ constexpr const char* kUsage =
     "                              [--task K --tasks N]\n"
     "  Writes fractal_<seed>.<ext> for seeds S..S+N-1 and index.json (docs/fractals.md).\n"
     "\n"
-    "  --task K --tasks N (generate, fractals): make only part K (0-based) of N of the batch\n"
+    "  --task K --tasks N (generate, fractals, gqcnn-dataset): make only part K (0-based) of N\n"
+    "  of the batch\n"
     "  and a partial index DIR/index.task-K-of-N.json, for array jobs (Slurm: K =\n"
     "  $SLURM_ARRAY_TASK_ID). Every file is the same bytes whatever the split.\n"
     "\n"
@@ -75,7 +77,7 @@ constexpr const char* kUsage =
     "                                   [--images-per-pose K | --images-per-object K]\n"
     "                                   [--metric-threshold T] [--shard-objects N]\n"
     "                                   [--grasps N] [--robust-samples N] [--noise on|off]\n"
-    "                                   [--preview N]\n"
+    "                                   [--preview N] [--task K --tasks N]\n"
     "  GQ-CNN training data the Dex-Net 2.0 way (docs/gqcnn-dataset.md): per object its\n"
     "  stable poses, grasps and robust labels, depth renders on a table from random cameras\n"
     "  and one 32x32 grasp-aligned crop per aligned grasp, in shards of N objects with\n"
@@ -85,7 +87,8 @@ constexpr const char* kUsage =
     "  spreads exactly K images over the poses), label threshold 0.0002 on robust\n"
     "  Ferrari-Canny (0.002 = Dex-Net's literal rule; see the doc), 10 objects per\n"
     "  shard, 100 grasps, 25 robust samples, noise on, no preview (N crops of the first\n"
-    "  shard as DIR/previews/crops.png).\n";
+    "  shard as DIR/previews/crops.png). --task K --tasks N: the tasks split the shards; after\n"
+    "  merge-tasks the folder is what one process writes.\n";
 
 // --task K --tasks N: both or neither.
 void ParseArrayTask(cli::Args& args, cli::ArrayTask* task) {
@@ -221,7 +224,16 @@ int RunMergeTasks(const std::vector<std::string>& args) {
     std::cerr << "softgrasp-sim merge-tasks: give the batch's folder, and nothing else\n" << kUsage;
     return 2;
   }
-  auto index = cli::MergeTaskIndexes(args[0]);
+  // A gqcnn-dataset's parts say so in their "task" object; its merge also renumbers images.
+  bool gqcnn = false;
+  if (auto parts = cli::FindTaskIndexes(args[0]); parts.ok()) {
+    if (auto text = cli::ReadFile(parts.value().front()); text.ok()) {
+      const auto j = nlohmann::json::parse(text.value(), nullptr, false);
+      gqcnn = j.is_object() && j.contains("task") && j["task"].is_object() &&
+              j["task"].value("kind", "") == "gqcnn-dataset";
+    }
+  }
+  auto index = gqcnn ? sim::MergeGqcnnDatasetTasks(args[0]) : cli::MergeTaskIndexes(args[0]);
   if (!index.ok()) {
     std::cerr << "softgrasp-sim merge-tasks: " << index.error().message << "\n";
     return 1;
@@ -321,6 +333,7 @@ std::string ParseGqcnnDatasetArgs(std::vector<std::string> argv, sim::GqcnnDatas
   args.Int("--images-per-object", 1, 100000, &params->images_per_object);
   args.Number("--metric-threshold", cli::Bounds{0, 1, false, true}, &params->metric_threshold);
   args.Int("--shard-objects", 1, 100000, &params->shard_objects);
+  ParseArrayTask(args, &params->task);
   args.Int("--grasps", 1, 1000, &params->analysis.num_grasps);
   args.Int("--robust-samples", 1, 200, &params->analysis.robust_samples);
   args.Choice<bool>("--noise", {{"on", true}, {"off", false}}, &params->noise.enabled);

@@ -58,7 +58,7 @@ core::Result<std::filesystem::path> WriteTaskIndex(const std::filesystem::path& 
   return path;
 }
 
-core::Result<std::filesystem::path> MergeTaskIndexes(const std::filesystem::path& dir) {
+core::Result<std::vector<std::filesystem::path>> FindTaskIndexes(const std::filesystem::path& dir) {
   static const std::regex kName(R"(index\.task-(\d+)-of-(\d+)\.json)");
   std::map<int, std::filesystem::path> parts;
   int of = 0;
@@ -75,7 +75,12 @@ core::Result<std::filesystem::path> MergeTaskIndexes(const std::filesystem::path
                        "dir");
     }
     of = n;
-    parts[std::stoi(match[1].str())] = entry.path();
+    const int k = std::stoi(match[1].str());
+    if (k >= n) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       entry.path().string() + " names no task of " + std::to_string(n), "dir");
+    }
+    parts[k] = entry.path();
   }
   if (ec) {
     return MakeError(ErrorCode::kNotFound, "cannot list " + dir.string() + ": " + ec.message(),
@@ -95,12 +100,22 @@ core::Result<std::filesystem::path> MergeTaskIndexes(const std::filesystem::path
                          missing + "; re-run them alone (sbatch --array=" + missing + ")",
                      "dir");
   }
+  std::vector<std::filesystem::path> ordered;
+  for (const auto& [k, path] : parts) ordered.push_back(path);
+  return ordered;
+}
 
+core::Result<std::filesystem::path> MergeTaskIndexes(const std::filesystem::path& dir) {
+  auto found = FindTaskIndexes(dir);
+  if (!found.ok()) return found.error();
+  const std::vector<std::filesystem::path>& parts = found.value();
+  const int of = static_cast<int>(parts.size());
   json merged;
   std::string entries_key;
   int next_item = 0;
   json entries = json::array();
-  for (const auto& [k, path] : parts) {
+  for (int k = 0; k < of; ++k) {
+    const std::filesystem::path& path = parts[static_cast<std::size_t>(k)];
     auto text = ReadFile(path);
     if (!text.ok()) return MakeError(ErrorCode::kInvalidArgument, text.error().message, "dir");
     json part = json::parse(text.value(), nullptr, /*allow_exceptions=*/false);

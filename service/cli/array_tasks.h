@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "service/core/status.h"
 
@@ -42,6 +43,11 @@ core::Result<std::filesystem::path> WriteTaskIndex(const std::filesystem::path& 
                                                    nlohmann::json index, const ArrayTask& task,
                                                    const ItemRange& items,
                                                    const std::string& entries_key);
+
+/// The partial indexes DIR/index.task-K-of-N.json, K = 0..N-1 in order. Errors: kNotFound naming
+/// the missing tasks (re-run those alone) or when there is none; kInvalidArgument when the folder
+/// mixes parts of different N.
+core::Result<std::vector<std::filesystem::path>> FindTaskIndexes(const std::filesystem::path& dir);
 
 /// Merges DIR/index.task-K-of-N.json (K = 0..N-1) into DIR/index.json. Errors (nothing written):
 /// kNotFound naming the missing tasks (re-run those alone), kInvalidArgument for parts that are

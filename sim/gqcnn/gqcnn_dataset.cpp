@@ -85,6 +85,63 @@ std::string ShardFile(std::uint32_t shard) {
   return name;
 }
 
+constexpr const char* kTaskKey = "task";
+constexpr const char* kTaskKind = "gqcnn-dataset";
+
+/// The index and skipped-objects files of a whole run or of task K of N.
+struct TaskFiles {
+  std::string index;
+  std::string skipped;
+};
+TaskFiles TaskFilesOf(const cli::ArrayTask& task) {
+  if (task.count == 1) return {std::string(gqcnn::kIndexFileName), "skipped.json"};
+  const std::string suffix =
+      ".task-" + std::to_string(task.index) + "-of-" + std::to_string(task.count) + ".json";
+  return {cli::IndexFileName(task), "skipped" + suffix};
+}
+
+/// A partial index's JSON: the dataset index plus a "task" object.
+core::Result<std::pair<gqcnn::DatasetIndex, json>> ParseTaskIndex(const fs::path& path) {
+  auto text = cli::ReadFile(path);
+  if (!text.ok()) return text.error();
+  json j = json::parse(text.value(), nullptr, false);
+  if (!j.is_object() || !j.contains(kTaskKey) || !j[kTaskKey].is_object() ||
+      j[kTaskKey].value("kind", "") != kTaskKind) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     path.string() + " is not a partial index of a gqcnn-dataset", "dir");
+  }
+  json task = j[kTaskKey];
+  j.erase(kTaskKey);
+  auto index = gqcnn::IndexFromJson(j);
+  if (!index.ok()) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     path.string() + ": " + index.error().field + ": " + index.error().message,
+                     "dir");
+  }
+  return std::make_pair(std::move(index).value(), std::move(task));
+}
+
+/// The earlier run's index of this run (task): kNotFound when there is none.
+core::Result<gqcnn::DatasetIndex> ReadTaskIndex(const fs::path& dir, const TaskFiles& files) {
+  if (files.index == gqcnn::kIndexFileName) return gqcnn::ReadIndex(dir);
+  auto parsed = ParseTaskIndex(dir / files.index);
+  if (!parsed.ok()) return parsed.error();
+  return std::move(parsed.value().first);
+}
+
+std::optional<core::Error> WriteTaskIndex(const fs::path& dir, const gqcnn::DatasetIndex& index,
+                                          const cli::ArrayTask& task,
+                                          const cli::ItemRange& shards) {
+  if (task.count == 1) return gqcnn::WriteIndex(dir, index);
+  json j = gqcnn::IndexToJson(index);
+  j[kTaskKey] = {{"kind", kTaskKind},
+                 {"index", task.index},
+                 {"of", task.count},
+                 {"first_shard", shards.first},
+                 {"end_shard", shards.end}};
+  return cli::WriteFile(dir / cli::IndexFileName(task), j.dump(1) + "\n", cli::Parents::kCreate);
+}
+
 }  // namespace
 
 const char* GqcnnMeshSourceName(GqcnnMeshSource source) {
@@ -634,11 +691,20 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
     }
   }
   const json generator = GqcnnGeneratorJson(params);
+  const auto objects = static_cast<std::uint32_t>(params.objects);
+  const auto per_shard = static_cast<std::uint32_t>(params.shard_objects);
+  const std::uint32_t shards = (objects + per_shard - 1) / per_shard;
+  if (const std::string bad = cli::CheckArrayTask(params.task, static_cast<int>(shards));
+      !bad.empty()) {
+    return MakeError(ErrorCode::kInvalidArgument, bad + " (tasks split the shards)", "task");
+  }
+  const cli::ItemRange task_shards = cli::TaskItems(params.task, static_cast<int>(shards));
+  const TaskFiles task_files = TaskFilesOf(params.task);
 
   // An earlier run's index: same configuration, or refuse.
   gqcnn::DatasetIndex old;
   bool have_old = false;
-  auto read = gqcnn::ReadIndex(params.out_dir);
+  auto read = ReadTaskIndex(params.out_dir, task_files);
   if (read.ok()) {
     if (read.value().generator != generator) {
       return MakeError(ErrorCode::kConflict,
@@ -663,7 +729,7 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
   // Reasons of objects skipped by the earlier run (their shards may be kept).
   std::map<std::uint32_t, std::string> old_skipped;
   if (have_old) {
-    if (auto bytes = cli::ReadFile(params.out_dir / "skipped.json"); bytes.ok()) {
+    if (auto bytes = cli::ReadFile(params.out_dir / task_files.skipped); bytes.ok()) {
       const json j = json::parse(bytes.value(), nullptr, false);
       if (j.is_array()) {
         for (const json& e : j) {
@@ -679,14 +745,16 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
   GqcnnDatasetResult result;
   result.index.generator = generator;
   result.index.metric_threshold = params.metric_threshold;
-  const auto objects = static_cast<std::uint32_t>(params.objects);
-  const auto per_shard = static_cast<std::uint32_t>(params.shard_objects);
-  const std::uint32_t shards = (objects + per_shard - 1) / per_shard;
   json skipped_json = json::array();
-  std::uint64_t image_base = 0;
+  std::uint64_t image_base = 0;  // counted from this task's first shard
   int done = 0;
-  bool preview_written = false;
-  for (std::uint32_t shard = 0; shard < shards; ++shard) {
+  const auto task_objects = static_cast<int>(
+      std::min<std::uint64_t>(objects, std::uint64_t{per_shard} * task_shards.end) -
+      std::uint64_t{per_shard} * task_shards.first);
+  // One process writes the preview of its first shard; of a split run, task 0 does.
+  bool preview_written = params.task.index != 0;
+  for (auto shard = static_cast<std::uint32_t>(task_shards.first);
+       shard < static_cast<std::uint32_t>(task_shards.end); ++shard) {
     const std::uint32_t first = shard * per_shard;
     const std::uint32_t last = std::min(objects, first + per_shard);
     const std::string file = ShardFile(shard);
@@ -728,7 +796,7 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
           image_base += listed->images;
           result.shards_kept.push_back(shard);
           done += static_cast<int>(last - first);
-          if (progress) progress(done, static_cast<int>(objects));
+          if (progress) progress(done, task_objects);
         }
       }
     }
@@ -755,7 +823,7 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
         records.insert(records.end(), o.datapoints.begin(), o.datapoints.end());
         result.index.objects.push_back(std::move(o.object));
         ++done;
-        if (progress) progress(done, static_cast<int>(objects));
+        if (progress) progress(done, task_objects);
       }
       entry.datapoints = records.size();
       if (auto error = gqcnn::WriteShard(params.out_dir / file, records)) return *error;
@@ -772,13 +840,92 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
       }
     }
     // The index after every shard, so a killed run resumes from here.
-    if (auto error = cli::WriteFile(params.out_dir / "skipped.json", skipped_json.dump(1) + "\n")) {
+    if (auto error =
+            cli::WriteFile(params.out_dir / task_files.skipped, skipped_json.dump(1) + "\n")) {
       return *error;
     }
-    if (auto error = gqcnn::WriteIndex(params.out_dir, result.index)) return *error;
+    if (auto error = WriteTaskIndex(params.out_dir, result.index, params.task, task_shards)) {
+      return *error;
+    }
   }
   result.timing.total_ms = Ms(total_start);
   return result;
+}
+
+core::Result<fs::path> MergeGqcnnDatasetTasks(const fs::path& dir) {
+  auto found = cli::FindTaskIndexes(dir);
+  if (!found.ok()) return found.error();
+  const std::vector<fs::path>& parts = found.value();
+  const int of = static_cast<int>(parts.size());
+  gqcnn::DatasetIndex merged;
+  json skipped = json::array();
+  std::uint64_t offset = 0;  // images of the tasks before this one
+  std::int64_t next_shard = 0;
+  for (int k = 0; k < of; ++k) {
+    const fs::path& path = parts[static_cast<std::size_t>(k)];
+    const auto bad = [&](const std::string& why) {
+      return MakeError(ErrorCode::kInvalidArgument, path.string() + ": " + why, "dir");
+    };
+    auto parsed = ParseTaskIndex(path);
+    if (!parsed.ok()) return parsed.error();
+    gqcnn::DatasetIndex& part = parsed.value().first;
+    const json& task = parsed.value().second;
+    if (task.value("index", -1) != k || task.value("of", -1) != of) {
+      return bad("its \"task\" object does not match its name");
+    }
+    if (k == 0) {
+      merged.generator = part.generator;
+      merged.metric_threshold = part.metric_threshold;
+    } else if (part.generator != merged.generator ||
+               part.metric_threshold != merged.metric_threshold) {
+      return bad("made with other parameters than task 0");
+    }
+    const std::int64_t first = task.value("first_shard", std::int64_t{-1});
+    const std::int64_t end = task.value("end_shard", std::int64_t{-1});
+    if (first != next_shard || end < first ||
+        static_cast<std::int64_t>(part.shards.size()) != end - first) {
+      return bad("holds " + std::to_string(part.shards.size()) + " finished shards of " +
+                 std::to_string(first) + ".." + std::to_string(end) + "; expected shards from " +
+                 std::to_string(next_shard) + ", all finished (re-run the task)");
+    }
+    next_shard = end;
+    // Shift this task's image numbers; a shard whose numbers already start at the shifted value
+    // was rewritten by an earlier, interrupted merge.
+    std::uint64_t local = 0;
+    for (const gqcnn::ShardEntry& shard : part.shards) {
+      if (offset > 0 && shard.datapoints > 0) {
+        auto records = gqcnn::ReadShard(dir / shard.file);
+        if (!records.ok()) return records.error();
+        std::uint64_t lowest = std::numeric_limits<std::uint64_t>::max();
+        for (const auto& d : records.value())
+          lowest = std::min<std::uint64_t>(lowest, d.image_index);
+        if (lowest == local) {
+          for (auto& d : records.value()) d.image_index += static_cast<std::uint32_t>(offset);
+          if (auto error = gqcnn::WriteShard(dir / shard.file, records.value())) return *error;
+        } else if (lowest != local + offset) {
+          return bad(shard.file + "'s images start at " + std::to_string(lowest) +
+                     ", neither this task's " + std::to_string(local) + " nor the merged " +
+                     std::to_string(local + offset));
+        }
+      }
+      local += shard.images;
+    }
+    offset += local;
+    for (auto& o : part.objects) merged.objects.push_back(std::move(o));
+    for (auto& sh : part.shards) merged.shards.push_back(std::move(sh));
+    const std::string skipped_name = "skipped" + path.filename().string().substr(5);  // "index"
+    auto skipped_text = cli::ReadFile(dir / skipped_name);
+    if (skipped_text.ok()) {
+      const json part_skipped = json::parse(skipped_text.value(), nullptr, false);
+      if (!part_skipped.is_array()) return bad(skipped_name + " is not a JSON array");
+      for (const json& e : part_skipped) skipped.push_back(e);
+    } else if (skipped_text.error().code != ErrorCode::kNotFound) {
+      return skipped_text.error();
+    }
+  }
+  if (auto error = cli::WriteFile(dir / "skipped.json", skipped.dump(1) + "\n")) return *error;
+  if (auto error = gqcnn::WriteIndex(dir, merged)) return *error;
+  return dir / gqcnn::kIndexFileName;
 }
 
 }  // namespace softgrasp::sim

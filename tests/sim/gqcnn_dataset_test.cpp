@@ -255,6 +255,56 @@ TEST(GqcnnDatasetTest, SameSeedSameBytesAndADamagedOrDeletedShardIsRegeneratedAl
 
 // Equal-sized datasets: exactly K images per object whatever its number of stable poses, spread
 // over the poses in turn; labels follow the chosen threshold, which the index records.
+// Array tasks (Slurm): each task numbers its images from 0; the merge shifts them by the images
+// of the tasks before, so the folder is one process's, byte for byte, and merging again (as after
+// an interrupted merge) changes nothing. A missing task is named; a task beyond the shards is
+// refused.
+TEST(GqcnnDatasetTest, ArrayTasksMergeIntoTheBytesOfOneProcess) {
+  const testing::TempDir dir("gqcnn-dataset-tasks");
+  GqcnnDatasetParams whole = SmallParams(dir / "whole");
+  whole.objects = 4;
+  whole.shard_objects = 1;
+  auto one = GenerateGqcnnDataset(whole);
+  ASSERT_TRUE(one.ok()) << one.error().message;
+  ASSERT_GT(one.value().index.shards[2].datapoints, 0u);  // a shifted shard is checked below
+  GqcnnDatasetParams split = whole;
+  split.out_dir = dir / "split";
+  for (int k : {2, 0}) {
+    split.task = {k, 3};
+    auto part = GenerateGqcnnDataset(split);
+    ASSERT_TRUE(part.ok()) << part.error().message;
+  }
+  auto missing = MergeGqcnnDatasetTasks(split.out_dir);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find("have not written their index: 1"), std::string::npos)
+      << missing.error().message;
+  split.task = {1, 3};
+  ASSERT_TRUE(GenerateGqcnnDataset(split).ok());
+  const std::vector<std::string> files = {"index.json",
+                                          "skipped.json",
+                                          "shards/shard_00000.gqd",
+                                          "shards/shard_00001.gqd",
+                                          "shards/shard_00002.gqd",
+                                          "shards/shard_00003.gqd"};
+  for (int round = 0; round < 2; ++round) {
+    auto merged = MergeGqcnnDatasetTasks(split.out_dir);
+    ASSERT_TRUE(merged.ok()) << merged.error().message;
+    for (const std::string& f : files) {
+      EXPECT_EQ(Slurp(whole.out_dir / f), Slurp(split.out_dir / f)) << f << ", round " << round;
+    }
+  }
+  // The merged folder resumes as one process: every shard is kept.
+  GqcnnDatasetParams again = whole;
+  again.out_dir = split.out_dir;
+  auto resumed = GenerateGqcnnDataset(again);
+  ASSERT_TRUE(resumed.ok()) << resumed.error().message;
+  EXPECT_EQ(resumed.value().shards_kept, (std::vector<std::uint32_t>{0, 1, 2, 3}));
+  split.task = {4, 5};
+  auto beyond = GenerateGqcnnDataset(split);
+  ASSERT_FALSE(beyond.ok());
+  EXPECT_EQ(beyond.error().field, "task");
+}
+
 TEST(GqcnnDatasetTest, ImagesPerObjectAndTheLabelThreshold) {
   const fs::path dir = fs::temp_directory_path() / "gqcnn_dataset_images_per_object";
   fs::remove_all(dir);

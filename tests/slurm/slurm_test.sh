@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Datasets on Slurm, on a one-node cluster this test starts (munged, slurmctld and slurmd from
 # Debian's packages, private config, ports and folders; all stopped at the end):
-#  - fractals and generate as array jobs (scripts/slurm-batch.sh) give the same bytes, file for
-#    file, as one process with the same seed;
+#  - fractals, generate and gqcnn-dataset as array jobs (scripts/slurm-batch.sh) give the same
+#    bytes, file for file, as one process with the same seed;
 #  - a task that fails (its shard folder is blocked) is named, the others are kept, and
 #    re-running it alone (--only) completes the batch, again the same bytes;
 #  - the wall time of one process and of the array job on this machine's cores, for the docs.
@@ -129,6 +129,14 @@ bash "$batch" --tasks 3 --only 1 --sim "$sim" -- "${gen[@]}" --out "$work/scenes
   fail "re-running task 1 alone failed: $(cat "$work/batch.err")"
 same_bytes "$work/scenes-one" "$work/scenes"
 log "generate: task 1 re-run alone ($((SECONDS - started)) s), merged = one process, byte for byte"
+
+# ---- gqcnn-dataset: 2 tasks; the merge renumbers the second task's images ------------------
+gq=(gqcnn-dataset --objects 4 --shard-objects 1 --images-per-object 2 --grasps 20 --robust-samples 3 --seed 6)
+"$sim" "${gq[@]}" --out "$work/gqcnn-one" >/dev/null 2>&1 || fail "gqcnn-dataset in one process"
+bash "$batch" --tasks 2 --sim "$sim" -- "${gq[@]}" --out "$work/gqcnn" >/dev/null 2>&1 ||
+  fail "slurm-batch.sh gqcnn-dataset"
+same_bytes "$work/gqcnn-one" "$work/gqcnn"
+log "gqcnn-dataset: 2 array tasks merged = one process, byte for byte"
 
 # ---- wall time: one process and an array job of $cpus tasks ---------------------------------
 scenes=$((8 * cpus))
