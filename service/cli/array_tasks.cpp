@@ -1,7 +1,9 @@
 #include "service/cli/array_tasks.h"
 
+#include <charconv>
 #include <map>
-#include <regex>
+#include <optional>
+#include <string_view>
 #include <system_error>
 #include <vector>
 
@@ -15,6 +17,29 @@ using core::MakeError;
 using nlohmann::json;
 
 constexpr const char* kTaskKey = "task";
+
+/// K and N of a file named index.task-K-of-N.json (decimal, no sign), else nullopt.
+std::optional<ArrayTask> ParseTaskIndexName(std::string_view name) {
+  constexpr std::string_view kPrefix = "index.task-";
+  constexpr std::string_view kSuffix = ".json";
+  constexpr std::string_view kOf = "-of-";
+  if (!name.starts_with(kPrefix) || !name.ends_with(kSuffix)) return std::nullopt;
+  name.remove_prefix(kPrefix.size());
+  name.remove_suffix(kSuffix.size());
+  const std::size_t of = name.find(kOf);
+  if (of == std::string_view::npos) return std::nullopt;
+  const auto number = [](std::string_view digits, int* out) {
+    if (digits.empty() || digits.size() > 7) return false;
+    const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), *out);
+    return ec == std::errc() && end == digits.data() + digits.size();
+  };
+  ArrayTask task;
+  if (!number(name.substr(0, of), &task.index) ||
+      !number(name.substr(of + kOf.size()), &task.count)) {
+    return std::nullopt;
+  }
+  return task;
+}
 
 }  // namespace
 
@@ -59,15 +84,13 @@ core::Result<std::filesystem::path> WriteTaskIndex(const std::filesystem::path& 
 }
 
 core::Result<std::vector<std::filesystem::path>> FindTaskIndexes(const std::filesystem::path& dir) {
-  static const std::regex kName(R"(index\.task-(\d+)-of-(\d+)\.json)");
   std::map<int, std::filesystem::path> parts;
   int of = 0;
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
-    const std::string name = entry.path().filename().string();
-    std::smatch match;
-    if (!std::regex_match(name, match, kName)) continue;
-    const int n = std::stoi(match[2].str());
+    const auto named = ParseTaskIndexName(entry.path().filename().string());
+    if (!named) continue;
+    const int n = named->count;
     if (of != 0 && n != of) {
       return MakeError(ErrorCode::kInvalidArgument,
                        dir.string() + " holds partial indexes of " + std::to_string(of) + " and " +
@@ -75,7 +98,7 @@ core::Result<std::vector<std::filesystem::path>> FindTaskIndexes(const std::file
                        "dir");
     }
     of = n;
-    const int k = std::stoi(match[1].str());
+    const int k = named->index;
     if (k >= n) {
       return MakeError(ErrorCode::kInvalidArgument,
                        entry.path().string() + " names no task of " + std::to_string(n), "dir");

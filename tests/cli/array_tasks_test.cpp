@@ -130,6 +130,21 @@ TEST(ArrayTasks, PartsOfDifferentRunsAreRefused) {
     EXPECT_NE(merged.error().message.find("expected to start at 5"), std::string::npos)
         << merged.error().message;
   }
+  {
+    // Names that only look like parts are not parts; a part beyond N is refused.
+    const softgrasp::testing::TempDir dir("array-tasks-names");
+    WriteParts(dir.path(), 10, 2, {0, 1});
+    for (const char* stray : {"index.task-x-of-2.json", "index.task-1-of-2.json.tmp",
+                              "index.task--1-of-2.json", "index.task-1-of-.json"}) {
+      ASSERT_FALSE(WriteFile(dir / stray, "{}").has_value());
+    }
+    EXPECT_TRUE(MergeTaskIndexes(dir.path()).ok());
+    ASSERT_FALSE(WriteFile(dir / "index.task-2-of-2.json", "{}").has_value());
+    auto merged = MergeTaskIndexes(dir.path());
+    ASSERT_FALSE(merged.ok());
+    EXPECT_NE(merged.error().message.find("names no task of 2"), std::string::npos)
+        << merged.error().message;
+  }
   const softgrasp::testing::TempDir empty("array-tasks-empty");
   EXPECT_EQ(MergeTaskIndexes(empty.path()).error().code, core::ErrorCode::kNotFound);
   EXPECT_EQ(MergeTaskIndexes(empty / "absent").error().code, core::ErrorCode::kNotFound);
