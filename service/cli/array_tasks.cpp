@@ -29,7 +29,9 @@ std::optional<ArrayTask> ParseTaskIndexName(std::string_view name) {
   const std::size_t of = name.find(kOf);
   if (of == std::string_view::npos) return std::nullopt;
   const auto number = [](std::string_view digits, int* out) {
-    if (digits.empty() || digits.size() > 7) return false;
+    if (digits.empty() || digits.size() > 7 || digits.front() < '0' || digits.front() > '9') {
+      return false;
+    }
     const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), *out);
     return ec == std::errc() && end == digits.data() + digits.size();
   };
