@@ -3,7 +3,7 @@
 # (models/segmentation.md): bins of 3-8 objects and dense bins of 15-30 whose piles reach the
 # walls, tables with a few objects, two cameras (SR305-like at 0.32 and 0.55 m, Primesense at
 # 0.70-0.80 m). Validation uses shapes never seen in training (--split val).
-# Usage: scripts/make-segmentation-data.sh OUT_DIR   (about 25 min on 2 cores; runs 2 at a time)
+# Usage: scripts/make-segmentation-data.sh OUT_DIR   (about 35 min on 2 cores; runs 2 at a time)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="${1:?usage: make-segmentation-data.sh OUT_DIR}"
@@ -26,6 +26,9 @@ train_a() {
   # Selection sets (held-out shapes, other seeds) for choosing grouping thresholds, so the
   # validation sets stay untouched until the final scores.
   gen sel-bin        --scenes 40  --seed 301 --objects 3-8 --split val
+  # A second dense set for the fine-tuning stage (models/segmentation.md): dense bins were the
+  # weak part after the first 2500 steps.
+  gen train-dense-b  --scenes 300 --seed 106 --objects 15-30
 }
 train_b() {
   gen train-dense    --scenes 300 --seed 102 --objects 15-30

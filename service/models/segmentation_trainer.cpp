@@ -6,6 +6,7 @@
 #include <fstream>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <random>
 
 #include "service/core/preprocess.h"
@@ -107,6 +108,23 @@ core::Result<int> LoadCheckpoint(const std::filesystem::path& path, State& s,
     return MakeError(ErrorCode::kUnprocessable, "cannot resume from " + path.string() + ": " + what,
                      "resume");
   }
+}
+
+/// Copies the weights of the saved model `path` into `net` (fine-tuning start).
+std::optional<core::Error> InitFromModel(const std::filesystem::path& path, SegmentationNet& net,
+                                         const SegmentationNetConfig& c) {
+  auto loaded = LoadSegmentationNet(path);
+  if (!loaded.ok()) return loaded.error();
+  if (!ConfigTensor(loaded.value().config).equal(ConfigTensor(c))) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     path.string() + " was trained with another network config", "init");
+  }
+  torch::NoGradGuard no_grad;
+  const auto from = loaded.value().net->named_parameters();
+  for (auto& p : net->named_parameters()) p.value().copy_(from[p.key()]);
+  const auto from_buffers = loaded.value().net->named_buffers();
+  for (auto& b : net->named_buffers()) b.value().copy_(from_buffers[b.key()]);
+  return std::nullopt;
 }
 
 double LearningRate(const SegmentationTrainOptions& o, int step) {
@@ -320,6 +338,8 @@ core::Result<SegmentationTrainReport> TrainSegmentation(const SegmentationTrainO
     report.start_step = step.value();
     report.history.resize(
         std::min<std::size_t>(report.history.size(), static_cast<std::size_t>(report.start_step)));
+  } else if (!o.init.empty()) {
+    if (auto error = InitFromModel(o.init, s.net, o.network)) return *error;
   }
   std::error_code ec;
   if (o.out.has_parent_path()) std::filesystem::create_directories(o.out.parent_path(), ec);

@@ -55,6 +55,9 @@ struct SegmentationTrainOptions {
   int checkpoint_every = 250;
   bool resume = false;
   int stop_after_step = 0;  ///< stop (checkpointing) after this step; 0 = run to `steps`
+  /// Fine-tuning: start from this saved model's weights (same network config) with a fresh
+  /// optimiser and schedule. Empty = random initialisation. A checkpoint being resumed wins.
+  std::filesystem::path init;
   SegmentationNetConfig network;
 };
 

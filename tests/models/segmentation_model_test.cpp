@@ -164,6 +164,42 @@ TEST_F(SegmentationPipelineTest, ResumingGivesTheSameLossesAsOneRun) {
   EXPECT_TRUE(fs::exists(*root_ / "whole" / "segmentation_loss.png"));
 }
 
+TEST_F(SegmentationPipelineTest, FineTuningStartsFromTheGivenModelsWeights) {
+  ASSERT_TRUE(TrainSegmentation(Options("base", 3), *set_).ok());
+  auto fresh = TrainSegmentation(Options("fresh", 1), *set_);
+  ASSERT_TRUE(fresh.ok());
+  SegmentationTrainOptions tune = Options("tuned", 1);
+  tune.init = *root_ / "base" / "segmentation.pt";
+  tune.learning_rate = 1e-12;  // so the tuned file keeps the base weights
+  auto tuned = TrainSegmentation(tune, *set_);
+  ASSERT_TRUE(tuned.ok()) << tuned.error().message;
+  // Same seed and batch as the fresh run; only the starting weights differ.
+  EXPECT_EQ(tuned.value().start_step, 0);
+  EXPECT_NE(tuned.value().history[0].total, fresh.value().history[0].total);
+  auto base = SegmentationModel::Load(*root_ / "base" / "segmentation.pt");
+  auto after = SegmentationModel::Load(*root_ / "tuned" / "segmentation.pt");
+  ASSERT_TRUE(base.ok() && after.ok());
+  auto ds = SceneDataset::Open(*root_ / "data");
+  auto sample = ds.value().Load(1);
+  ASSERT_TRUE(sample.ok());
+  auto scene = core::Preprocess(sample.value().depth, sample.value().camera);
+  ASSERT_TRUE(scene.ok());
+  const cv::Mat a = base.value().SegmentScene(scene.value()).deformability;
+  const cv::Mat b = after.value().SegmentScene(scene.value()).deformability;
+  EXPECT_LT(cv::norm(a, b, cv::NORM_INF), 1e-5);
+
+  SegmentationTrainOptions other = Options("other", 1);
+  other.network.base_channels = 8;
+  other.init = tune.init;
+  auto mismatch = TrainSegmentation(other, *set_);
+  ASSERT_FALSE(mismatch.ok());
+  EXPECT_EQ(mismatch.error().code, core::ErrorCode::kInvalidArgument);
+  EXPECT_NE(mismatch.error().message.find("another network config"), std::string::npos);
+  other.init = *root_ / "no-such-model.pt";
+  other.network.base_channels = 4;
+  EXPECT_EQ(TrainSegmentation(other, *set_).error().code, core::ErrorCode::kNotFound);
+}
+
 TEST_F(SegmentationPipelineTest, TrainedFileLoadsAndSegmentsAtTheInputSize) {
   ASSERT_TRUE(TrainSegmentation(Options("infer", 2), *set_).ok());
   auto model = SegmentationModel::Load(*root_ / "infer" / "segmentation.pt");

@@ -14,6 +14,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "service/core/preprocess.h"
 #include "service/io/overlay.h"
@@ -95,6 +96,14 @@ TEST_P(RealFrames, ConfidentInstancesCoverTheObjects) {
                 io::DrawInstances(io::ColorizeDepth(depth), shown));
     cv::imwrite(std::string(dir) + "/segmentation-model-" + f.name + "-all.png",
                 io::DrawInstances(io::ColorizeDepth(depth), out.instances.labels));
+    cv::Mat1b foreground;  // the foreground head, with the given object masks' outlines
+    out.foreground.convertTo(foreground, CV_8U, 255.0);
+    cv::Mat3b shown_fg;
+    cv::cvtColor(foreground, shown_fg, cv::COLOR_GRAY2BGR);
+    std::vector<std::vector<cv::Point>> outlines;
+    cv::findContours(truth.clone(), outlines, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+    cv::drawContours(shown_fg, outlines, -1, cv::Scalar(0, 200, 0), 1);
+    cv::imwrite(std::string(dir) + "/segmentation-model-" + f.name + "-foreground.png", shown_fg);
   }
   EXPECT_GE(kept, 1);
   EXPECT_GE(iou, f.min_iou);

@@ -24,9 +24,11 @@ const char* const kSegmentationUsage =
     "                                    [--width W] [--height H] [--base-channels C]\n"
     "                                    [--levels L] [--centre-weight W] [--offset-weight W]\n"
     "                                    [--ssim-weight W] [--max-scenes N] [--threads T]\n"
+    "                                    [--init MODEL0]\n"
     "  Trains the segmentation U-Net (foreground, centre heatmap, centre offsets,\n"
     "  deformability) on softgrasp-sim datasets. Writes MODEL, MODEL.ckpt (resumable),\n"
-    "  MODEL_loss.csv/.png.\n"
+    "  MODEL_loss.csv/.png. --init fine-tunes: it starts from MODEL0's weights (same network\n"
+    "  size) with a fresh optimiser and learning-rate schedule.\n"
     "       softgrasp-train evaluate-segmentation --model MODEL|none --data DIR[,DIR...]\n"
     "                                    [--scenes N] [--baseline-deformability D] [--threads T]\n"
     "                                    [--foreground-threshold P] [--centre-threshold C]\n"
@@ -93,6 +95,8 @@ int RunSegmentationTrain(std::vector<std::string> argv) {
   args.Number("--offset-weight", cli::Bounds::AtLeast(0), &o.offset_weight);
   args.Number("--ssim-weight", cli::Bounds::AtLeast(0), &o.ssim_weight);
   o.resume = args.Flag("--resume");
+  std::string init;
+  if (args.Text("--init", &init)) o.init = init;
   if (const auto error = args.Finish()) return Fail(error->message);
   const int div = 1 << o.network.levels;
   if (o.network.width % div != 0 || o.network.height % div != 0) {
