@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Generates the simulated training and validation sets of the segmentation model
 # (models/segmentation.md): bins of 3-8 objects and dense bins of 15-30 whose piles reach the
-# walls, tables with a few objects, two cameras (SR305-like at 0.32 and 0.55 m, Primesense at
-# 0.70-0.80 m). Validation uses shapes never seen in training (--split val).
-# Usage: scripts/make-segmentation-data.sh OUT_DIR   (about 35 min on 2 cores; runs 2 at a time)
+# walls, tables with a few objects, brush piles, sponge-packed bins, three cameras (SR305-like at
+# 0.32 and 0.55 m, Primesense at 0.70-0.80 m, PhoXi-like at 0.80 m). Validation uses shapes never
+# seen in training (--split val).
+# Usage: scripts/make-segmentation-data.sh OUT_DIR   (about 30 min on 2 cores; runs 2 at a time)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="${1:?usage: make-segmentation-data.sh OUT_DIR}"
@@ -26,14 +27,21 @@ train_a() {
   # Selection sets (held-out shapes, other seeds) for choosing grouping thresholds, so the
   # validation sets stay untouched until the final scores.
   gen sel-bin        --scenes 40  --seed 301 --objects 3-8 --split val
-  # A second dense set for the fine-tuning stage (models/segmentation.md): dense bins were the
-  # weak part after the first 2500 steps.
-  gen train-dense-b  --scenes 300 --seed 106 --objects 15-30
+  # The fine-tuning stage's sets (models/segmentation.md): brush piles and sponge-packed bins
+  # like the deformability tasks' scenes (training shapes, other seeds).
+  gen train-brush    --scenes 200 --seed 108 --objects 4-8 --categories brush
+  gen train-sponge   --scenes 200 --seed 109 --objects 6-10 \
+    --categories box,can,bottle,block,cup,sponge,sponge,sponge,sponge,sponge
 }
 train_b() {
   gen train-dense    --scenes 300 --seed 102 --objects 15-30
   gen val-dense      --scenes 50  --seed 202 --objects 15-30 --split val
   gen sel-dense      --scenes 20  --seed 302 --objects 15-30 --split val
+  # Fine-tuning stage: more dense bins (the weak part after the first 2500 steps), and dense bins
+  # seen by a PhoXi-like camera (the real heap in tests/data/gqcnn/phoxi) from 0.80 m.
+  gen train-dense-b  --scenes 300 --seed 106 --objects 15-30
+  gen train-phoxi    --scenes 200 --seed 107 --objects 15-30 --camera-height 0.80 \
+    --intrinsics "$root/tests/data/gqcnn/phoxi/phoxi.intr"
 }
 mkdir -p "$out"
 train_a & a=$!

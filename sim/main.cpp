@@ -3,6 +3,7 @@
 // of mesh files), `gqcnn-dataset` (Dex-Net 2.0 style GQ-CNN training data), `robot` (a
 // simulated robot on the DDS bus) and `merge-tasks` (the index of a batch made by array tasks).
 // Parsing only; the work is in the libraries.
+#include <algorithm>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -13,6 +14,7 @@
 #include "service/cli/array_tasks.h"
 #include "service/cli/files.h"
 #include "service/io/depth_codec.h"
+#include "sim/catalogue/catalogue.h"
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/user_objects.h"
 #include "sim/fractal_batch.h"
@@ -32,6 +34,7 @@ constexpr const char* kUsage =
     "usage: softgrasp-sim generate --scenes N --seed S --out DIR [--objects MIN-MAX]\n"
     "                              [--split train|val] [--support bin|table] [--noise on|off]\n"
     "                              [--fractals P] [--fractal-stiffness K] [--shard-size N]\n"
+    "                              [--categories C[,C...]]\n"
     "                              [--user-mesh PATH[:K|:STIFFNESS.json]]...\n"
     "                              [--camera-height M] [--intrinsics FILE.intr]\n"
     "                              [--task K --tasks N]\n"
@@ -40,7 +43,9 @@ constexpr const char* kUsage =
     "  manifest per scene, in shards, plus index.json (docs/simulator.md). Defaults: objects\n"
     "  3-8 (at most 40; 15-30 makes dense bins whose piles reach the walls), split train,\n"
     "  support bin, noise on, fractals 0 (probability that an object is a\n"
-    "  fractal mesh), fractal stiffness drawn per object unless K (0.1-1) is given. Each\n"
+    "  fractal mesh), fractal stiffness drawn per object unless K (0.1-1) is given,\n"
+    "  every catalogue category drawn alike unless --categories lists the ones to draw from\n"
+    "  (a name given twice is drawn twice as often: brush piles, sponge-packed bins). Each\n"
     "  --user-mesh (OBJ/PLY/STL in metres; constant stiffness K, default 0.5, or a JSON file\n"
     "  {\"vertex_stiffness\": [...]}) joins the draw beside the catalogue categories. The\n"
     "  camera looks straight down from M metres (default 0.55) with SR305-like intrinsics\n"
@@ -125,6 +130,22 @@ std::string ParseGenerateArgs(std::vector<std::string> argv, sim::DatasetParams*
       &params->spec.support.kind);
   args.Choice<bool>("--noise", {{"on", true}, {"off", false}}, &params->spec.render.noise.enabled);
   args.Number("--fractals", cli::Bounds::Closed(0, 1), &params->spec.fractal_probability);
+  std::string categories;
+  if (args.Text("--categories", &categories)) {
+    const std::vector<std::string>& known = sim::CatalogueCategories();
+    for (std::size_t start = 0, end = 0; end != std::string::npos; start = end + 1) {
+      end = categories.find(',', start);
+      const std::string name = categories.substr(start, end - start);
+      if (std::find(known.begin(), known.end(), name) == known.end()) {
+        std::string names;
+        for (const std::string& k : known) names += (names.empty() ? "" : ", ") + k;
+        args.Fail("--categories: unknown category '" + name + "' (known: " + names + ")",
+                  "--categories");
+        break;
+      }
+      params->spec.categories.push_back(name);
+    }
+  }
   float fractal_stiffness = 0;
   if (args.Number("--fractal-stiffness", cli::Bounds::Closed(0.1, 1), &fractal_stiffness)) {
     params->spec.fractal_stiffness = fractal_stiffness;

@@ -347,10 +347,31 @@ TEST(SimCli, GenerateIsDeterministicAndRejectsBadArguments) {
        {" generate --seed 1 --out /tmp/x", " generate --scenes 1 --objects 0-3 --out /tmp/x",
         " generate --scenes 1 --split test --out /tmp/x", " generate --scenes 1",
         " generate --scenes 1 --scenes 2 --out /tmp/x",
-        " generate --scenes 1 --out /tmp/x --what 1", " generate --scenes 1 --out"}) {
+        " generate --scenes 1 --out /tmp/x --what 1", " generate --scenes 1 --out",
+        " generate --scenes 1 --out /tmp/x --categories brush,mop",
+        " generate --scenes 1 --out /tmp/x --categories brush,"}) {
     const int status = std::system((exe + bad + " > /dev/null 2>&1").c_str());
     EXPECT_EQ(WEXITSTATUS(status), 2) << bad;
   }
+}
+
+// --categories: only the named categories are drawn (brush piles, sponge-packed bins).
+TEST(SimCli, GenerateDrawsOnlyTheListedCategories) {
+  const fs::path dir = FreshDir("cli_categories");
+  const std::string cmd = std::string(SOFTGRASP_SIM_EXE) +
+                          " generate --scenes 3 --seed 9 --objects 3-4 --categories sponge,brush" +
+                          " --out " + dir.string() + " > /dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const nlohmann::json index = nlohmann::json::parse(ReadAll(dir / "index.json"));
+  EXPECT_EQ(index["spec"]["categories"], nlohmann::json::array({"sponge", "brush"}));
+  int objects = 0;
+  for (const auto& entry : index["entries"]) {
+    for (const auto& c : entry["categories"]) {
+      EXPECT_TRUE(c == "sponge" || c == "brush") << c;
+      ++objects;
+    }
+  }
+  EXPECT_GE(objects, 9);
 }
 
 }  // namespace
