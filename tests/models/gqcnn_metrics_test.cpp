@@ -62,6 +62,25 @@ TEST(GqcnnMetricsTest, KnownConfusionMatrixAndTopRankedGrasps) {
   EXPECT_DOUBLE_EQ(strict.top1_precision, 0.5);  // ranking does not depend on the threshold
 }
 
+// Equal probabilities at the top of an image count as a random pick among them (in
+// expectation), whatever the order of the records: a constant predictor is not credited with
+// the order the dataset wrote its grasps in (the best first).
+TEST(GqcnnMetricsTest, TiesAtTheTopScoreTheTiedGraspsPositiveRate) {
+  std::vector<std::uint8_t> labels{1, 0, 0, 0, 1, 1, 0, 0};
+  std::vector<float> constant(8, 0.3f);
+  std::vector<std::uint32_t> objects{1, 1, 1, 1, 2, 2, 2, 2};
+  std::vector<std::uint32_t> images{1, 1, 1, 1, 2, 2, 2, 2};
+  const GqcnnMetrics m = ComputeGqcnnMetrics({labels, constant, objects, images}, 0.5);
+  EXPECT_DOUBLE_EQ(m.top1_precision, 0.5 * (1.0 / 4.0 + 2.0 / 4.0));
+  // A tie below the top does not matter; one at the top among two.
+  std::vector<float> p{0.2f, 0.9f, 0.9f, 0.2f, 0.1f, 0.1f, 0.7f, 0.1f};
+  const GqcnnMetrics r = ComputeGqcnnMetrics({labels, p, objects, images}, 0.5);
+  EXPECT_DOUBLE_EQ(r.top1_precision, 0.5 * (0.0 + 0.0));
+  p[0] = 0.9f;  // image 1: three tied at 0.9, one of them positive
+  const GqcnnMetrics t = ComputeGqcnnMetrics({labels, p, objects, images}, 0.5);
+  EXPECT_DOUBLE_EQ(t.top1_precision, 0.5 * (1.0 / 3.0 + 0.0));
+}
+
 TEST(GqcnnMetricsTest, UndefinedFiguresAreNaNAndSizesMustAgree) {
   std::vector<std::uint8_t> labels{0, 0};
   std::vector<float> p{0.1f, 0.2f};

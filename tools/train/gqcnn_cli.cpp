@@ -236,10 +236,11 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
       {"gqcnn", score(p)},
       {"baselines",
        {{"majority_class",
-         {{"description",
-           "constant P = the training split's positive rate (" +
-               std::to_string(baseline.value().train_positive_rate) +
-               "): predicts the majority class; its top-ranked grasp is the image's first"},
+         {{"description", "constant P = the training split's positive rate (" +
+                              std::to_string(baseline.value().train_positive_rate) +
+                              "): predicts the majority class; every grasp ties, so its top-grasp "
+                              "precision is each "
+                              "image's positive rate (ties are broken at random, in expectation)"},
           {"metrics", score(majority)}}},
         {"logistic_hand_features",
          {{"description",

@@ -33,7 +33,9 @@ GqcnnMetrics ComputeGqcnnMetrics(const GqcnnScored& s, double threshold,
   std::map<std::uint32_t, std::size_t> objects;  // key -> dense index, first appearance
   std::vector<GqcnnObjectCounts> counts;
   struct Image {
-    std::size_t best = 0;
+    std::size_t best = 0;   ///< first grasp with the image's highest probability
+    int tied = 0;           ///< grasps with that probability ...
+    int tied_positive = 0;  ///< ... and the positives among them
     bool any_positive = false;
   };
   std::map<std::uint32_t, Image> images;
@@ -47,10 +49,19 @@ GqcnnMetrics ComputeGqcnnMetrics(const GqcnnScored& s, double threshold,
     c.fp += !label && predicted;
     c.tn += !label && !predicted;
     c.fn += label && !predicted;
-    const auto [im, first] = images.try_emplace(s.image_keys[i], Image{i, label});
+    const auto [im, first] = images.try_emplace(s.image_keys[i], Image{i, 1, label, label});
     if (!first) {
-      if (s.probabilities[i] > s.probabilities[im->second.best]) im->second.best = i;
-      im->second.any_positive = im->second.any_positive || label;
+      Image& image = im->second;
+      const float top = s.probabilities[image.best];
+      if (s.probabilities[i] > top) {
+        image = Image{i, 1, label, image.any_positive || label};
+      } else {
+        if (s.probabilities[i] == top) {
+          image.tied += 1;
+          image.tied_positive += label;
+        }
+        image.any_positive = image.any_positive || label;
+      }
     }
   }
   for (const auto& [key, image] : images) {
@@ -58,7 +69,9 @@ GqcnnMetrics ComputeGqcnnMetrics(const GqcnnScored& s, double threshold,
     // single-object datasets).
     GqcnnObjectCounts& c = counts[objects.at(s.object_keys[image.best])];
     c.images += 1;
-    c.top1_positive += s.labels[image.best] != 0;
+    // Ties at the top are broken at random: the expected outcome, so a constant predictor
+    // (the majority baseline) scores the image's positive rate, not the file order's luck.
+    c.top1_positive += static_cast<double>(image.tied_positive) / image.tied;
     c.images_with_a_positive += image.any_positive;
   }
   std::vector<int> all(counts.size());
