@@ -73,6 +73,9 @@ segmentation::InstanceMasks GroupInstances(const HeadMaps& maps, cv::Size output
   cv::Mat1w labels(output_size, std::uint16_t{0});
   std::vector<double> fg_sum(peaks.size() + 1, 0.0);
   std::vector<int> area(peaks.size() + 1, 0);
+  const double max_vote_d2 = p.max_vote_distance_px > 0
+                                 ? p.max_vote_distance_px * p.max_vote_distance_px * sx * sy
+                                 : std::numeric_limits<double>::infinity();
   if (!peaks.empty()) {
     for (int v = 0; v < output_size.height; ++v) {
       const float* f = fg[v];
@@ -93,6 +96,7 @@ segmentation::InstanceMasks GroupInstances(const HeadMaps& maps, cv::Size output
             best_k = k;
           }
         }
+        if (!(best <= max_vote_d2)) continue;
         lab[u] = static_cast<std::uint16_t>(best_k + 1);
         fg_sum[best_k + 1] += f[u];
         ++area[best_k + 1];

@@ -72,6 +72,31 @@ TEST(GroupInstances, PerfectHeadsGiveTheLabelsBackAtTwiceTheSize) {
   }
 }
 
+// A foreground blob far from every centre (a real frame's image corner) whose pixels vote for
+// themselves is not glued to the nearest object; without the limit it is.
+TEST(GroupInstances, VotesFarFromEveryCentreJoinNothing) {
+  cv::Mat1w labels(60, 100, std::uint16_t{0});
+  labels(cv::Rect(10, 10, 20, 20)).setTo(1);
+  const SegmentationTargets t = MakeSegmentationTargets(labels, 3.0);
+  HeadMaps heads{t.foreground.clone(), t.centre, t.offset_u * kOffsetScalePx,
+                 t.offset_v * kOffsetScalePx};
+  const cv::Rect blob(80, 40, 10, 10);  // 64 model px from the object's centre
+  heads.foreground(blob).setTo(1.0f);
+  GroupingParams p;
+  p.max_border_px = 0;
+  p.min_area_px = 1;
+  ASSERT_EQ(p.max_vote_distance_px, GroupingParams{}.max_vote_distance_px);
+  ASSERT_GT(p.max_vote_distance_px, 0.0f);
+  const segmentation::InstanceMasks capped = GroupInstances(heads, labels.size(), p);
+  ASSERT_EQ(capped.count(), 1);
+  EXPECT_EQ(cv::countNonZero(capped.labels(blob)), 0);
+  EXPECT_EQ(cv::countNonZero(capped.labels == 1), 400);
+  p.max_vote_distance_px = 0;  // plain Panoptic-DeepLab: every foreground pixel joins a centre
+  const segmentation::InstanceMasks glued = GroupInstances(heads, labels.size(), p);
+  ASSERT_EQ(glued.count(), 1);
+  EXPECT_EQ(cv::countNonZero(glued.labels(blob)), 100);
+}
+
 TEST(GroupInstances, NoPeakMeansNoInstance) {
   HeadMaps heads{cv::Mat1f(20, 20, 1.0f), cv::Mat1f(20, 20, 0.05f), cv::Mat1f(20, 20, 0.0f),
                  cv::Mat1f(20, 20, 0.0f)};

@@ -119,13 +119,13 @@ INSTANTIATE_TEST_SUITE_P(Gqcnn, RealFrames,
                                                  "primesense0", kPrimesense, 0.80, 0.20},
                                            Frame{"gqcnn/primesense/single_depth_1.npy",
                                                  "gqcnn/primesense/single_segmask_1.png",
-                                                 "primesense1", kPrimesense, 0.25, 0.40},
+                                                 "primesense1", kPrimesense, 0.30, 0.15},
                                            Frame{"gqcnn/primesense/single_depth_2.npy",
                                                  "gqcnn/primesense/single_segmask_2.png",
-                                                 "primesense2", kPrimesense, 0.70, 0.28},
+                                                 "primesense2", kPrimesense, 0.85, 0.12},
                                            Frame{"gqcnn/phoxi/clutter_depth_0.npy",
                                                  "gqcnn/phoxi/clutter_segmask_0.png", "phoxi",
-                                                 kPhoxi, 0.55, 0.18}),
+                                                 kPhoxi, 0.55, 0.14}),
                          [](const ::testing::TestParamInfo<Frame>& p) { return p.param.name; });
 
 }  // namespace

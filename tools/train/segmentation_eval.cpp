@@ -145,6 +145,7 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
     args.Fail("--peak-window must be odd, 1..99", "--peak-window");
   }
   args.Int("--min-area", 0, 1000000, &grouping.min_area_px);
+  args.Number("--max-vote-distance", cli::Bounds::AtLeast(0), &grouping.max_vote_distance_px);
   if (const auto error = args.Finish()) return Fail(error->message);
   models::SetTorchThreads(threads);
   std::optional<models::SegmentationModel> model;
@@ -159,7 +160,8 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
                {{"foreground_threshold", grouping.foreground_threshold},
                 {"centre_threshold", grouping.centre_threshold},
                 {"peak_window_px", grouping.peak_window_px},
-                {"min_area_px", grouping.min_area_px}}},
+                {"min_area_px", grouping.min_area_px},
+                {"max_vote_distance_px", grouping.max_vote_distance_px}}},
               {"baseline_deformability", baseline_deformability},
               {"sets", json::object()}};
   SetResult all;
