@@ -42,7 +42,7 @@ struct DeformabilityParams {
   double slice_step_m = 0.010;      ///< L: slices this far apart; the collision image is the next
                                     ///< slice down, so the fingertips go L below the contact
   int num_slices = 5;               ///< M: slices searched from the first one down
-  double min_score = 0.27;          ///< R: instances scoring below are never targets
+  double min_score = 0.25;          ///< R: instances scoring below are never targets
   TargetPolicy policy = TargetPolicy::kHighest;
   int target_id = 0;  ///< > 0: this instance, whatever its score (wins over policy)
   /// Pre-grasp openings tried, as fractions of the stroke, in increasing order; the smallest

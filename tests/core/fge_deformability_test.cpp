@@ -284,7 +284,7 @@ TEST(DetectGraspsDeformability, LeastDeformableLooksPastATargetWhoseStiffPartIsO
 TEST(DetectGraspsDeformability, UnconfidentInstancesAreNeverTargets) {
   const Prepared s =
       Make(TallSoftLowHard(), {{1, 1}, {2, 2}}, {{1, 0.1f}, {2, 0.1f}}, {0.1f, 0.9f});
-  DeformabilityParams params;  // R = 0.27
+  DeformabilityParams params;  // R = 0.25
   EXPECT_EQ(OrderTargets(s.scene, s.objects, params), (std::vector<int>{2}));
   const auto result =
       DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
