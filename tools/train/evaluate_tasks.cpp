@@ -150,7 +150,11 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
         return out;
       }
     } else {
-      options.region_of_interest = roi & target_mask;
+      // A new buffer: assigning the expression to options.region_of_interest, which shares
+      // `roi`'s pixels, would write the target into the task's workspace mask for every later
+      // scene (obstacles scenes after the first then had no contact region at all).
+      const cv::Mat1b target_in_roi = roi & target_mask;
+      options.region_of_interest = target_in_roi;
     }
   }
   auto plan = engine::PlanGrasps(depth, camera, options, models.loaded);
