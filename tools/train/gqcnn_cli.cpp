@@ -239,8 +239,8 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
          {{"description", "constant P = the training split's positive rate (" +
                               std::to_string(baseline.value().train_positive_rate) +
                               "): predicts the majority class; every grasp ties, so its top-grasp "
-                              "precision is each "
-                              "image's positive rate (ties are broken at random, in expectation)"},
+                              "precision is each image's positive rate (ties are broken at "
+                              "random, in expectation)"},
           {"metrics", score(majority)}}},
         {"logistic_hand_features",
          {{"description",
