@@ -121,21 +121,29 @@ cv::Mat1b GrownTarget(const ObjectMaps& objects, int target_id) {
 }
 
 /// The scene the planner sees for one target: contact only on the (grown) target's stiff part
-/// (thesis §5.3.3: the soft part is never contact and stays an obstacle); soft neighbours
-/// lowered by the press depth (a finger may push that far into them).
-Scene SceneForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
-                     const cv::Mat1f& stiffness, const DeformabilityParams& params) {
-  Scene out = scene;
-  out.contact_allowed =
+/// (thesis §5.3.3: the soft part is never contact and stays an obstacle). `soft`: the pixels of
+/// soft neighbours; with `press` they are lowered by the press depth (a finger may push that far
+/// into them).
+struct TargetView {
+  Scene scene;
+  cv::Mat1b soft;
+  bool pressable = false;  ///< there are soft neighbours and a press depth
+};
+
+TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
+                         const cv::Mat1f& stiffness, const DeformabilityParams& params,
+                         bool press) {
+  TargetView out{scene, {}, false};
+  out.scene.contact_allowed =
       StiffPart(scene, GrownTarget(objects, target_id), stiffness, params.stiff_part_fraction);
-  const cv::Mat1b soft =
-      (objects.labels != 0) & (objects.labels != target_id) &
-      (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
-  if (params.max_press_depth_m > 0 && cv::countNonZero(soft) > 0) {
-    out.height_m = scene.height_m.clone();
+  out.soft = (objects.labels != 0) & (objects.labels != target_id) &
+             (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
+  out.pressable = params.max_press_depth_m > 0 && cv::countNonZero(out.soft) > 0;
+  if (press && out.pressable) {
+    out.scene.height_m = scene.height_m.clone();
     cv::Mat1f pressed =
         cv::max(scene.height_m - static_cast<float>(params.max_press_depth_m), 0.0f);
-    pressed.copyTo(out.height_m, soft);
+    pressed.copyTo(out.scene.height_m, out.soft);
   }
   return out;
 }
@@ -178,6 +186,17 @@ void FillPressed(const Scene& scene, const cv::Mat1w& labels, int target_id,
                     });
   out->pressed_ids.assign(ids.begin(), ids.end());
   out->press_depth_m = depth;
+}
+
+/// A soft neighbour reaching into the closing region above the fingertips: the fingers would
+/// land on it and squeeze it with the target (pressing only works under the finger footprints,
+/// so the closing region must be judged on the heights as seen).
+bool SoftNeighbourBetweenFingers(const Scene& scene, const cv::Mat1b& soft, const Grasp& g) {
+  bool found = false;
+  ForEachGraspPixel(g, soft.size(), -1.0, g.opening_px / 2, [&](int u, int v) {
+    if (soft(v, u) != 0 && scene.height_m(v, u) > g.grasp_height_m) found = true;
+  });
+  return found;
 }
 
 }  // namespace
@@ -252,6 +271,53 @@ std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
   return ids;
 }
 
+namespace {
+
+/// Algorithm 1 on one target's view (`scene` as seen) with each opening in turn, the smallest
+/// that gives a grasp kept; with `pressed`, grasps with a soft neighbour between the fingers are
+/// dropped. Returns 0 when no opening
+/// gave a grasp, 1 when the grasps replaced `result`'s (the first found, or less deformable than
+/// *best_deformability by more than the tie tolerance), -1 when a grasp was found but not kept.
+int PlanOpenings(const Scene& scene, const TargetView& view, bool pressed, const Camera& camera,
+                 const cv::Mat1f& stiffness, const Gripper& gripper, const StiffnessFgeParams& sp,
+                 const DeformabilityParams& params, int id, const cv::Mat1w& labels,
+                 double* best_deformability, DeformabilityResult* result) {
+  for (std::size_t k = 0; k < params.opening_fractions.size(); ++k) {
+    const double fraction = params.opening_fractions[k];
+    Gripper opened = gripper;
+    opened.opening_stroke_m = gripper.opening_stroke_m * fraction;
+    auto grasps = DetectGraspsStiffness(view.scene, camera, stiffness, opened, sp);
+    if (k + 1 < params.opening_fractions.size()) {
+      std::erase_if(grasps, [&](const Grasp& g) { return g.score < params.min_graspability; });
+    }
+    if (pressed) {
+      std::erase_if(
+          grasps, [&](const Grasp& g) { return SoftNeighbourBetweenFingers(scene, view.soft, g); });
+    }
+    if (grasps.empty()) continue;
+    const double found = 1.0 - grasps.front().mean_stiffness;
+    if (result->target_id > 0 && !(found < *best_deformability - params.tie_tolerance)) {
+      return -1;
+    }
+    *best_deformability = found;
+    result->target_id = id;
+    result->grasps.clear();
+    for (const Grasp& g : grasps) {
+      DeformabilityGrasp dg;
+      dg.grasp = g;
+      dg.instance_id = id;
+      dg.mean_deformability = 1.0 - g.mean_stiffness;
+      dg.opening_fraction = fraction;
+      FillPressed(scene, labels, id, &dg);
+      result->grasps.push_back(std::move(dg));
+    }
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
 DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& camera,
                                               const ObjectMaps& objects, const Gripper& gripper,
                                               const DeformabilityParams& params) {
@@ -284,32 +350,15 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
     }
     const int id = candidate.id;
     result.tried_ids.push_back(id);
-    const Scene target_scene = SceneForTarget(scene, objects, id, stiffness, params);
-    if (cv::countNonZero(target_scene.contact_allowed) == 0) continue;
-    for (std::size_t k = 0; k < params.opening_fractions.size(); ++k) {
-      const double fraction = params.opening_fractions[k];
-      Gripper opened = gripper;
-      opened.opening_stroke_m = gripper.opening_stroke_m * fraction;
-      auto grasps = DetectGraspsStiffness(target_scene, camera, stiffness, opened, sp);
-      if (k + 1 < params.opening_fractions.size()) {
-        std::erase_if(grasps, [&](const Grasp& g) { return g.score < params.min_graspability; });
-      }
-      if (grasps.empty()) continue;
-      const double found = 1.0 - grasps.front().mean_stiffness;
-      if (result.target_id > 0 && !(found < best_deformability - params.tie_tolerance)) break;
-      best_deformability = found;
-      result.target_id = id;
-      result.grasps.clear();
-      for (const Grasp& g : grasps) {
-        DeformabilityGrasp dg;
-        dg.grasp = g;
-        dg.instance_id = id;
-        dg.mean_deformability = 1.0 - g.mean_stiffness;
-        dg.opening_fraction = fraction;
-        FillPressed(scene, objects.labels, id, &dg);
-        result.grasps.push_back(std::move(dg));
-      }
-      break;
+    // Grasps that touch no neighbour first; pressing soft neighbours aside only when the target
+    // gives none without (a "neighbour" is sometimes a piece of the target itself that the
+    // segmentation split off, and pressing into it lands the finger on the target).
+    for (const bool press : {false, true}) {
+      const TargetView view = ViewForTarget(scene, objects, id, stiffness, params, press);
+      if (cv::countNonZero(view.scene.contact_allowed) == 0 || (press && !view.pressable)) break;
+      const int found = PlanOpenings(scene, view, press, camera, stiffness, gripper, sp, params, id,
+                                     objects.labels, &best_deformability, &result);
+      if (found != 0) break;  // a grasp (kept or not better than the best): no pressing needed
     }
   }
   if (result.target_id == 0 && params.whole_scene_fallback && params.target_id == 0) {

@@ -58,7 +58,8 @@ struct DeformabilityParams {
   /// obstacles, so a closing region that would squeeze them fails FGE's slip rule.
   double stiff_part_fraction = 0.5;
   /// Neighbour pixels softer than this (deformability) are not collisions up to
-  /// max_press_depth_m: a finger may press them aside. > 1 disables pushing.
+  /// max_press_depth_m: a finger may press them aside, but only when the target gives no grasp
+  /// that touches nothing (all openings tried without pressing first). > 1 disables pushing.
   double soft_obstacle_threshold = 0.5;
   double max_press_depth_m = 0.02;
   /// kLeastDeformable: instances whose mean deformability is within this of the least are ties.

@@ -168,6 +168,45 @@ TEST(DetectGraspsDeformability, PressesSoftSpongesAsideToReachABox) {
                   .grasps.empty());
 }
 
+TEST(DetectGraspsDeformability, NeverPressesASpongeThatFillsTheGap) {
+  // The same box with the sponges flush against its long sides: a finger pressing a sponge
+  // would have the sponge between itself and the box and squeeze both. No grasp.
+  SceneSpec spec = BoxBetweenSponges();
+  spec.boxes[1].x_m = -0.035;
+  spec.boxes[2].x_m = 0.035;
+  const Prepared s =
+      Make(spec, {{1, 1}, {2, 2}, {3, 3}}, {{1, 0.05f}, {2, 0.9f}, {3, 0.9f}}, {0.9f, 0.9f, 0.9f});
+  DeformabilityParams params;
+  params.target_id = 1;
+  EXPECT_TRUE(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params)
+                  .grasps.empty());
+}
+
+TEST(DetectGraspsDeformability, PressesOnlyWhenNoGraspTouchesNothing) {
+  // A 30 x 110 mm box with sponges 5 mm from both long sides along most of its length; its last
+  // 25 mm stand free. A grasp across the free end touches nothing, so it is taken over the
+  // many grasps further along that would press the sponges (a "sponge" may be a piece of the
+  // target the segmentation split off).
+  SceneSpec spec;
+  spec.boxes = {Box{0.0, 0.0, 0.030, 0.110, 0.040, 0.0, 1},
+                Box{-0.040, 0.0125, 0.040, 0.085, 0.035, 0.0, 2},
+                Box{0.040, 0.0125, 0.040, 0.085, 0.035, 0.0, 3}};
+  const Prepared s =
+      Make(spec, {{1, 1}, {2, 2}, {3, 3}}, {{1, 0.05f}, {2, 0.9f}, {3, 0.9f}}, {0.9f, 0.9f, 0.9f});
+  DeformabilityParams params;
+  params.target_id = 1;
+  const auto result =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  ASSERT_EQ(result.target_id, 1);
+  ASSERT_FALSE(result.grasps.empty());
+  for (const DeformabilityGrasp& dg : result.grasps) {
+    EXPECT_TRUE(dg.pressed_ids.empty());
+    EXPECT_EQ(dg.press_depth_m, 0.0);
+    EXPECT_TRUE(BoxesUnderFingers(s, dg.grasp).empty());
+    EXPECT_EQ(BoxAtCenter(s, dg.grasp), 1);
+  }
+}
+
 // One object of two widths: a narrow arm (box 1, 18 mm across) and a wide one (box 2, 40 mm),
 // both 70 mm long (too long for the 50 mm stroke) and equally rigid.
 SceneSpec TwoWidths() {

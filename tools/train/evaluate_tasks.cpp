@@ -112,6 +112,7 @@ struct Plan {
   std::vector<core::Grasp> grasps;
   double detect_ms = 0;      ///< the engine's whole call: preprocessing, models, planner
   bool target_found = true;  ///< a named target matched an instance (deformability)
+  std::optional<engine::DeformabilityRecord> best;  ///< the best grasp's (deformability)
 };
 
 /// Where a user would click to name the target: the innermost pixel of its visible mask
@@ -161,6 +162,7 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
   if (!plan.ok()) return out;
   out.target_found = !plan.value().target_not_found;
   for (const engine::PlannedGrasp& g : plan.value().grasps) out.grasps.push_back(g.grasp);
+  if (!plan.value().grasps.empty()) out.best = plan.value().grasps.front().deformability;
   out.detect_ms = plan.value().timing.total_ms;
   return out;
 }
@@ -306,6 +308,11 @@ void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& ra
                             {"center_px", {g.center_u_px, g.center_v_px}},
                             {"contact_height_m", g.contact_height_m},
                             {"deformation_rate", e.deformation_rate}});
+    if (plan.best) {
+      s->per_grasp.back()["target_by"] = plan.best->target_by;
+      s->per_grasp.back()["opening_fraction"] = plan.best->opening_fraction;
+      s->per_grasp.back()["pressed_ids"] = plan.best->pressed_ids;
+    }
   }
   ++s->outcomes[outcome];
   s->example_reason.emplace(outcome, e.reason);
