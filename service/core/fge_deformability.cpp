@@ -39,6 +39,8 @@ void CheckParams(const DeformabilityParams& p, const Gripper& gripper) {
           "opening_fractions must be in increasing order");
   Require(p.stiff_part_fraction >= 0 && p.stiff_part_fraction <= 1,
           "stiff_part_fraction must be in [0, 1]");
+  Require(p.min_part_contrast >= 0 && p.min_part_contrast <= 1,
+          "min_part_contrast must be in [0, 1]");
   Require(p.soft_obstacle_threshold >= 0 && std::isfinite(p.soft_obstacle_threshold),
           "soft_obstacle_threshold must be >= 0");
   Require(p.max_press_depth_m >= 0 && p.max_press_depth_m <= 1,
@@ -75,15 +77,23 @@ cv::Mat1f StiffnessOf(const cv::Mat1f& deformability) {
 }
 
 /// The target's stiff part: pixels in the mask and in scene.contact_allowed at least
-/// stiff_part_fraction of the target's maximum stiffness there.
+/// stiff_part_fraction of the target's maximum stiffness there, unless the two parts differ by
+/// less than min_part_contrast in mean stiffness (then the whole mask: one material seen through
+/// a noisy map, as rigid targets packed among sponges look).
 cv::Mat1b StiffPart(const Scene& scene, const cv::Mat1b& target, const cv::Mat1f& stiffness,
-                    double stiff_part_fraction) {
+                    const DeformabilityParams& params) {
   cv::Mat1b allowed = target.clone();
   if (!scene.contact_allowed.empty()) allowed &= scene.contact_allowed;
   double max_stiffness = 0;
   cv::minMaxLoc(stiffness, nullptr, &max_stiffness, nullptr, nullptr, allowed);
-  allowed &= stiffness >= static_cast<float>(stiff_part_fraction * max_stiffness);
-  return allowed;
+  const cv::Mat1b soft =
+      allowed & (stiffness < static_cast<float>(params.stiff_part_fraction * max_stiffness));
+  const cv::Mat1b stiff = allowed & ~soft;
+  if (cv::countNonZero(soft) == 0 || cv::countNonZero(stiff) == 0 ||
+      cv::mean(stiffness, stiff)[0] - cv::mean(stiffness, soft)[0] < params.min_part_contrast) {
+    return allowed;
+  }
+  return stiff;
 }
 
 struct TargetStats {
@@ -134,8 +144,7 @@ TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int targ
                          const cv::Mat1f& stiffness, const DeformabilityParams& params,
                          bool press) {
   TargetView out{scene, {}, false};
-  out.scene.contact_allowed =
-      StiffPart(scene, GrownTarget(objects, target_id), stiffness, params.stiff_part_fraction);
+  out.scene.contact_allowed = StiffPart(scene, GrownTarget(objects, target_id), stiffness, params);
   out.soft = (objects.labels != 0) & (objects.labels != target_id) &
              (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
   out.pressable = params.max_press_depth_m > 0 && cv::countNonZero(out.soft) > 0;
@@ -228,8 +237,7 @@ std::vector<TargetStats> RankTargets(const Scene& scene, const ObjectMaps& objec
     TargetStats s;
     s.id = id;
     s.top_m = Quantile(h, kTopQuantile);
-    const cv::Mat1b part =
-        StiffPart(scene, objects.labels == id, stiffness, params.stiff_part_fraction);
+    const cv::Mat1b part = StiffPart(scene, objects.labels == id, stiffness, params);
     s.mean_deformability = 1.0 - cv::mean(stiffness, part)[0];
     stats.push_back(s);
   }

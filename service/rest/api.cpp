@@ -134,6 +134,7 @@ json DeformabilityDefaultsJson() {
           {"min_score", d.min_score},
           {"opening_fractions", d.opening_fractions},
           {"stiff_part_fraction", d.stiff_part_fraction},
+          {"min_part_contrast", d.min_part_contrast},
           {"soft_obstacle_threshold", d.soft_obstacle_threshold},
           {"max_press_depth_mm", d.max_press_depth_m * 1000.0},
           {"max_targets", d.max_targets}};

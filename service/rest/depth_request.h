@@ -35,12 +35,12 @@ enum class OverlayBackground { kDepth, kStiffness, kDeformability };
 /// height_step_mm, grip_depth_mm), "strategy" (engine::Strategies() names; default: the last
 /// one the loaded models serve), strategy=deformability's (target_policy, min_target_area_px
 /// (K), slice_step_mm (L), num_slices (M), min_score (R), opening_fractions,
-/// stiff_part_fraction, soft_obstacle_threshold, max_press_depth_mm, max_targets), the file
-/// part "segmask" (GQ-CNN's convention: a PNG of the depth's size, non-zero = contacts allowed),
-/// "min_depth_m" (default: the configuration's), "mean_stiffness" = true | false (fge grasps
-/// report the stiffness model's mean), the file part "labels" (a 16-bit PNG label image as
-/// POST /v1/segmentation?format=labels gives it, used instead of segmenting again), "target"
-/// (an instance id), "instances" = true | false (report each grasp's instance; implied by
+/// stiff_part_fraction, min_part_contrast, soft_obstacle_threshold, max_press_depth_mm,
+/// max_targets), the file part "segmask" (GQ-CNN's convention: a PNG of the depth's size, non-zero
+/// = contacts allowed), "min_depth_m" (default: the configuration's), "mean_stiffness" = true |
+/// false (fge grasps report the stiffness model's mean), the file part "labels" (a 16-bit PNG label
+/// image as POST /v1/segmentation?format=labels gives it, used instead of segmenting again),
+/// "target" (an instance id), "instances" = true | false (report each grasp's instance; implied by
 /// "target" and "labels"), "segmentation" = model | pcl (the segmenter when one runs).
 struct GraspRequest {
   DepthUpload upload;

@@ -216,6 +216,35 @@ SceneSpec TwoWidths() {
   return spec;
 }
 
+TEST(DetectGraspsDeformability, ALowContrastSoftPartIsNoSoftPart) {
+  // One object: an 18 mm arm and a 60 x 70 mm block (wider than the 50 mm stroke both ways).
+  // The map shows the arm at stiffness 0.24 and the block at 0.5: below half the maximum, but
+  // only 0.26 apart, as a learned map shows a rigid object among sponges. No soft part: the arm
+  // is grasped. With a clear contrast (the arm at 0.1), or with the contrast test off, the arm is
+  // the soft part and the object has no grasp.
+  SceneSpec spec;
+  spec.boxes = {Box{-0.05, 0.0, 0.018, 0.070, 0.040, 0.0, 1},
+                Box{0.06, 0.0, 0.060, 0.070, 0.040, 0.0, 2}};
+  DeformabilityParams params;
+  params.target_id = 1;
+  const Gripper gripper;
+  const Prepared noisy = Make(spec, {{1, 1}, {2, 1}}, {{1, 0.76f}, {2, 0.5f}}, {0.9f});
+  const auto result =
+      DetectGraspsDeformability(noisy.scene, noisy.synth.camera, noisy.objects, gripper, params);
+  ASSERT_FALSE(result.grasps.empty());
+  EXPECT_EQ(BoxAtCenter(noisy, result.grasps.front().grasp), 1);
+
+  params.min_part_contrast = 0;
+  EXPECT_TRUE(
+      DetectGraspsDeformability(noisy.scene, noisy.synth.camera, noisy.objects, gripper, params)
+          .grasps.empty());
+  params.min_part_contrast = DeformabilityParams{}.min_part_contrast;
+  const Prepared parts = Make(spec, {{1, 1}, {2, 1}}, {{1, 0.9f}, {2, 0.5f}}, {0.9f});
+  EXPECT_TRUE(
+      DetectGraspsDeformability(parts.scene, parts.synth.camera, parts.objects, gripper, params)
+          .grasps.empty());
+}
+
 TEST(DetectGraspsDeformability, TheSmallestOpeningThatWorksWins) {
   const Prepared s = Make(TwoWidths(), {{1, 1}, {2, 1}}, {{1, 0.1f}, {2, 0.1f}}, {0.9f});
   const Gripper gripper;
@@ -421,6 +450,7 @@ TEST(DetectGraspsDeformability, BadInputThrows) {
   bad([](DeformabilityParams& p) { p.opening_fractions = {0.0}; });
   bad([](DeformabilityParams& p) { p.stiff_part_fraction = -0.1; });
   bad([](DeformabilityParams& p) { p.max_press_depth_m = -1; });
+  bad([](DeformabilityParams& p) { p.min_part_contrast = 1.5; });
   bad([](DeformabilityParams& p) { p.min_target_area_px = std::nan(""); });
   bad([](DeformabilityParams& p) { p.max_targets = 0; });
   bad([](DeformabilityParams& p) { p.min_graspability = 2; });

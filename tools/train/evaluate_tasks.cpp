@@ -113,6 +113,8 @@ struct Plan {
   double detect_ms = 0;      ///< the engine's whole call: preprocessing, models, planner
   bool target_found = true;  ///< a named target matched an instance (deformability)
   std::optional<engine::DeformabilityRecord> best;  ///< the best grasp's (deformability)
+  /// A named target planned on a model instance: IoU of that instance with the true mask.
+  std::optional<double> target_iou;
 };
 
 /// Where a user would click to name the target: the innermost pixel of its visible mask
@@ -161,6 +163,17 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
   auto plan = engine::PlanGrasps(depth, camera, options, models.loaded);
   if (!plan.ok()) return out;
   out.target_found = !plan.value().target_not_found;
+  const auto& chosen_target = plan.value().target;
+  const int chosen_id = !chosen_target                     ? 0
+                        : chosen_target->id > 0            ? chosen_target->id
+                        : chosen_target->tried_ids.empty() ? 0
+                                                           : chosen_target->tried_ids.front();
+  if (!target_mask.empty() && chosen_id > 0 && plan.value().instances) {
+    const cv::Mat1b chosen = plan.value().instances->labels == chosen_id;
+    const double inter = cv::countNonZero(chosen & target_mask);
+    const double uni = cv::countNonZero(chosen | target_mask);
+    if (uni > 0) out.target_iou = inter / uni;
+  }
   for (const engine::PlannedGrasp& g : plan.value().grasps) out.grasps.push_back(g.grasp);
   if (!plan.value().grasps.empty()) out.best = plan.value().grasps.front().deformability;
   out.detect_ms = plan.value().timing.total_ms;
@@ -287,6 +300,11 @@ void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& ra
   if (!plan.target_found) ++s->target_not_found;
   if (plan.grasps.empty()) {
     ++s->no_grasp;
+    if (per_grasp && plan.target_iou) {
+      s->per_grasp.push_back({{"scene", s->success.size() - 1},
+                              {"outcome", "no_grasp"},
+                              {"target_iou", *plan.target_iou}});
+    }
     return;
   }
   ++s->attempts;
@@ -313,6 +331,7 @@ void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& ra
       s->per_grasp.back()["opening_fraction"] = plan.best->opening_fraction;
       s->per_grasp.back()["pressed_ids"] = plan.best->pressed_ids;
     }
+    if (plan.target_iou) s->per_grasp.back()["target_iou"] = *plan.target_iou;
   }
   ++s->outcomes[outcome];
   s->example_reason.emplace(outcome, e.reason);
