@@ -81,7 +81,7 @@ cv::Mat1f StiffnessOf(const cv::Mat1f& deformability) {
 /// less than min_part_contrast in mean stiffness (then the whole mask: one material seen through
 /// a noisy map, as rigid targets packed among sponges look).
 cv::Mat1b StiffPart(const Scene& scene, const cv::Mat1b& target, const cv::Mat1f& stiffness,
-                    const DeformabilityParams& params) {
+                    const DeformabilityParams& params, double min_part_contrast) {
   cv::Mat1b allowed = target.clone();
   if (!scene.contact_allowed.empty()) allowed &= scene.contact_allowed;
   double max_stiffness = 0;
@@ -90,7 +90,7 @@ cv::Mat1b StiffPart(const Scene& scene, const cv::Mat1b& target, const cv::Mat1f
       allowed & (stiffness < static_cast<float>(params.stiff_part_fraction * max_stiffness));
   const cv::Mat1b stiff = allowed & ~soft;
   if (cv::countNonZero(soft) == 0 || cv::countNonZero(stiff) == 0 ||
-      cv::mean(stiffness, stiff)[0] - cv::mean(stiffness, soft)[0] < params.min_part_contrast) {
+      cv::mean(stiffness, stiff)[0] - cv::mean(stiffness, soft)[0] < min_part_contrast) {
     return allowed;
   }
   return stiff;
@@ -131,9 +131,9 @@ cv::Mat1b GrownTarget(const ObjectMaps& objects, int target_id) {
 }
 
 /// The scene the planner sees for one target: contact only on the (grown) target's stiff part
-/// (thesis §5.3.3: the soft part is never contact and stays an obstacle). `soft`: the pixels of
-/// soft neighbours; with `press` they are lowered by the press depth (a finger may push that far
-/// into them).
+/// (thesis §5.3.3: the soft part is never contact and stays an obstacle; `contact` as
+/// StiffPart made it). `soft`: the pixels of soft neighbours; with `press` they are lowered by
+/// the press depth (a finger may push that far into them).
 struct TargetView {
   Scene scene;
   cv::Mat1b soft;
@@ -141,10 +141,9 @@ struct TargetView {
 };
 
 TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
-                         const cv::Mat1f& stiffness, const DeformabilityParams& params,
-                         bool press) {
+                         const cv::Mat1b& contact, const DeformabilityParams& params, bool press) {
   TargetView out{scene, {}, false};
-  out.scene.contact_allowed = StiffPart(scene, GrownTarget(objects, target_id), stiffness, params);
+  out.scene.contact_allowed = contact;
   out.soft = (objects.labels != 0) & (objects.labels != target_id) &
              (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
   out.pressable = params.max_press_depth_m > 0 && cv::countNonZero(out.soft) > 0;
@@ -237,7 +236,7 @@ std::vector<TargetStats> RankTargets(const Scene& scene, const ObjectMaps& objec
     TargetStats s;
     s.id = id;
     s.top_m = Quantile(h, kTopQuantile);
-    const cv::Mat1b part = StiffPart(scene, objects.labels == id, stiffness, params);
+    const cv::Mat1b part = StiffPart(scene, objects.labels == id, stiffness, params, 0.0);
     s.mean_deformability = 1.0 - cv::mean(stiffness, part)[0];
     stats.push_back(s);
   }
@@ -350,24 +349,41 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   // part is less deformable by more than the tie tolerance, could give a gentler grasp.
   const bool compare = params.policy == TargetPolicy::kLeastDeformable && params.target_id == 0;
   double best_deformability = std::numeric_limits<double>::infinity();
-  for (const TargetStats& candidate : order) {
-    if (static_cast<int>(result.tried_ids.size()) >= params.max_targets) break;
-    if (result.target_id > 0 &&
-        (!compare || candidate.mean_deformability >= best_deformability - params.tie_tolerance)) {
-      break;
+  // Pass 1 keeps every soft part out of the contact (thesis §5.3.3). Only when no target gives a
+  // grasp that way, pass 2 lets a target's soft-looking pixels be contact where they differ from
+  // the rest by less than min_part_contrast (a learned map shows rigid objects packed among
+  // sponges half soft); real parts stay out.
+  for (const double contrast : {0.0, params.min_part_contrast}) {
+    const bool second = contrast > 0;
+    if (result.target_id > 0 || (second && params.min_part_contrast == 0)) break;
+    int planned = 0;
+    for (const TargetStats& candidate : order) {
+      if (planned >= params.max_targets) break;
+      if (result.target_id > 0 &&
+          (!compare || candidate.mean_deformability >= best_deformability - params.tie_tolerance)) {
+        break;
+      }
+      const int id = candidate.id;
+      ++planned;
+      if (!second) result.tried_ids.push_back(id);
+      const cv::Mat1b grown = GrownTarget(objects, id);
+      const cv::Mat1b contact = StiffPart(scene, grown, stiffness, params, contrast);
+      if (second &&
+          cv::countNonZero(contact != StiffPart(scene, grown, stiffness, params, 0.0)) == 0) {
+        continue;  // no low-contrast soft part: pass 1 saw this target as it is
+      }
+      // Grasps that touch no neighbour first; pressing soft neighbours aside only when the
+      // target gives none without (a "neighbour" is sometimes a piece of the target itself that
+      // the segmentation split off, and pressing into it lands the finger on the target).
+      for (const bool press : {false, true}) {
+        const TargetView view = ViewForTarget(scene, objects, id, contact, params, press);
+        if (cv::countNonZero(contact) == 0 || (press && !view.pressable)) break;
+        const int found = PlanOpenings(scene, view, press, camera, stiffness, gripper, sp, params,
+                                       id, objects.labels, &best_deformability, &result);
+        if (found != 0) break;  // a grasp (kept or not better than the best): no pressing needed
+      }
     }
-    const int id = candidate.id;
-    result.tried_ids.push_back(id);
-    // Grasps that touch no neighbour first; pressing soft neighbours aside only when the target
-    // gives none without (a "neighbour" is sometimes a piece of the target itself that the
-    // segmentation split off, and pressing into it lands the finger on the target).
-    for (const bool press : {false, true}) {
-      const TargetView view = ViewForTarget(scene, objects, id, stiffness, params, press);
-      if (cv::countNonZero(view.scene.contact_allowed) == 0 || (press && !view.pressable)) break;
-      const int found = PlanOpenings(scene, view, press, camera, stiffness, gripper, sp, params, id,
-                                     objects.labels, &best_deformability, &result);
-      if (found != 0) break;  // a grasp (kept or not better than the best): no pressing needed
-    }
+    result.soft_part_allowed = second && result.target_id > 0;
   }
   if (result.target_id == 0 && params.whole_scene_fallback && params.target_id == 0) {
     StiffnessFgeParams whole;

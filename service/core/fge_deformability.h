@@ -57,10 +57,10 @@ struct DeformabilityParams {
   /// this fraction of the target's maximum are never contact (thesis §5.3.3); they stay
   /// obstacles, so a closing region that would squeeze them fails FGE's slip rule.
   double stiff_part_fraction = 0.5;
-  /// ... but only when the stiff part's mean stiffness exceeds the soft part's by at least this:
-  /// a learned map shows rigid objects packed among sponges half soft, and the rule then cut
-  /// away most of them (soft-obstacles task 29 % -> 53 % with it, brushes 87 % -> 84 %;
-  /// docs/deformability.md). 0 = always.
+  /// Only when no target gives a grasp with every soft part kept out, targets are planned again
+  /// with soft-looking pixels allowed as contact where the two parts differ by less than this in
+  /// mean stiffness: a learned map shows rigid objects packed among sponges half soft, and the
+  /// rule then cut most of them away (docs/deformability.md). 0 = never.
   double min_part_contrast = 0.3;
   /// Neighbour pixels softer than this (deformability) are not collisions up to
   /// max_press_depth_m: a finger may press them aside, but only when the target gives no grasp
@@ -95,6 +95,9 @@ struct DeformabilityResult {
   int target_id = 0;           ///< whose grasps these are; 0 when no target gave a grasp
   std::vector<int> tried_ids;  ///< targets planned, in order
   bool fallback = false;       ///< the grasps come from the whole-scene fallback
+  /// The grasps come from the second pass: the target's low-contrast soft-looking pixels were
+  /// allowed as contact (min_part_contrast).
+  bool soft_part_allowed = false;
   std::vector<DeformabilityGrasp> grasps;  ///< best first, all on target_id
 };
 

@@ -97,8 +97,8 @@ PlanError PlanDeformability(const PlanContext& c, Plan* plan) {
         dg.press_depth_m};
     plan->grasps.push_back(std::move(p));
   }
-  plan->target =
-      TargetChoice{planned.target_id, params.policy, planned.tried_ids, planned.fallback};
+  plan->target = TargetChoice{planned.target_id, params.policy, planned.tried_ids, planned.fallback,
+                              planned.soft_part_allowed};
   return std::nullopt;
 }
 

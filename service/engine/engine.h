@@ -150,6 +150,9 @@ struct TargetChoice {
   core::TargetPolicy policy = core::TargetPolicy::kHighest;
   std::vector<int> tried_ids;
   bool fallback = false;
+  /// The target's low-contrast soft-looking pixels were allowed as contact (no grasp kept out of
+  /// them; core::DeformabilityResult::soft_part_allowed).
+  bool soft_part_allowed = false;
 };
 
 /// Milliseconds; a stage that did not run is 0 (stiffness_ran says whether the model ran).

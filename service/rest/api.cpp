@@ -279,7 +279,8 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
     body["target"] = {{"id", t->id > 0 ? json(t->id) : json()},
                       {"policy", core::TargetPolicyName(t->policy)},
                       {"tried", t->tried_ids},
-                      {"fallback", t->fallback}};
+                      {"fallback", t->fallback},
+                      {"soft_part_allowed", t->soft_part_allowed}};
   }
   return body;
 }
