@@ -133,9 +133,14 @@ SceneSpec BoxBetweenSponges() {
   return spec;
 }
 
+// A rigid box (synthetic box 1) among soft sponges (boxes 2 and 3), each its own instance.
+Prepared BoxAndSponges(const SceneSpec& spec) {
+  return Make(spec, {{1, 1}, {2, 2}, {3, 3}}, {{1, 0.05f}, {2, 0.9f}, {3, 0.9f}},
+              {0.9f, 0.9f, 0.9f});
+}
+
 TEST(DetectGraspsDeformability, PressesSoftSpongesAsideToReachABox) {
-  const Prepared s = Make(BoxBetweenSponges(), {{1, 1}, {2, 2}, {3, 3}},
-                          {{1, 0.05f}, {2, 0.9f}, {3, 0.9f}}, {0.9f, 0.9f, 0.9f});
+  const Prepared s = BoxAndSponges(BoxBetweenSponges());
   DeformabilityParams params;
   params.target_id = 1;
   const auto result =
@@ -175,8 +180,7 @@ TEST(DetectGraspsDeformability, NeverPressesASpongeThatFillsTheGap) {
   SceneSpec spec = BoxBetweenSponges();
   spec.boxes[1].x_m = -0.035;
   spec.boxes[2].x_m = 0.035;
-  const Prepared s =
-      Make(spec, {{1, 1}, {2, 2}, {3, 3}}, {{1, 0.05f}, {2, 0.9f}, {3, 0.9f}}, {0.9f, 0.9f, 0.9f});
+  const Prepared s = BoxAndSponges(spec);
   DeformabilityParams params;
   params.target_id = 1;
   EXPECT_TRUE(DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params)
@@ -192,8 +196,7 @@ TEST(DetectGraspsDeformability, PressesOnlyWhenNoGraspTouchesNothing) {
   spec.boxes = {Box{0.0, 0.0, 0.030, 0.110, 0.040, 0.0, 1},
                 Box{-0.040, 0.0125, 0.040, 0.085, 0.035, 0.0, 2},
                 Box{0.040, 0.0125, 0.040, 0.085, 0.035, 0.0, 3}};
-  const Prepared s =
-      Make(spec, {{1, 1}, {2, 2}, {3, 3}}, {{1, 0.05f}, {2, 0.9f}, {3, 0.9f}}, {0.9f, 0.9f, 0.9f});
+  const Prepared s = BoxAndSponges(spec);
   DeformabilityParams params;
   params.target_id = 1;
   const auto result =
