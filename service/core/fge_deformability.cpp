@@ -282,9 +282,9 @@ namespace {
 
 /// Algorithm 1 on one target's view (`scene` as seen) with each opening in turn, the smallest
 /// that gives a grasp kept; with `pressed`, grasps with a soft neighbour between the fingers are
-/// dropped. Returns 0 when no opening
-/// gave a grasp, 1 when the grasps replaced `result`'s (the first found, or less deformable than
-/// *best_deformability by more than the tie tolerance), -1 when a grasp was found but not kept.
+/// dropped. Returns 0 when no opening gave a grasp, 1 when the grasps replaced `result`'s (the
+/// first found, or less deformable than *best_deformability by more than the tie tolerance), -1
+/// when a grasp was found but not kept.
 int PlanOpenings(const Scene& scene, const TargetView& view, bool pressed, const Camera& camera,
                  const cv::Mat1f& stiffness, const Gripper& gripper, const StiffnessFgeParams& sp,
                  const DeformabilityParams& params, int id, const cv::Mat1w& labels,
