@@ -16,6 +16,7 @@
 #include "service/engine/engine.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
+#include "service/segmentation/instance_metrics.h"
 #include "sim/dataset/scene_gen.h"
 #include "sim/grasp/execute.h"
 #include "sim/progress.h"
@@ -163,16 +164,14 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
   auto plan = engine::PlanGrasps(depth, camera, options, models.loaded);
   if (!plan.ok()) return out;
   out.target_found = !plan.value().target_not_found;
-  const auto& chosen_target = plan.value().target;
-  const int chosen_id = !chosen_target                     ? 0
-                        : chosen_target->id > 0            ? chosen_target->id
-                        : chosen_target->tried_ids.empty() ? 0
-                                                           : chosen_target->tried_ids.front();
+  // The named target's instance: the one that gave the grasps, else the one planned first.
+  int chosen_id = 0;
+  if (const auto& t = plan.value().target) {
+    chosen_id = t->id > 0 ? t->id : (t->tried_ids.empty() ? 0 : t->tried_ids.front());
+  }
   if (!target_mask.empty() && chosen_id > 0 && plan.value().instances) {
-    const cv::Mat1b chosen = plan.value().instances->labels == chosen_id;
-    const double inter = cv::countNonZero(chosen & target_mask);
-    const double uni = cv::countNonZero(chosen | target_mask);
-    if (uni > 0) out.target_iou = inter / uni;
+    out.target_iou =
+        segmentation::MaskIou(plan.value().instances->labels == chosen_id, target_mask);
   }
   for (const engine::PlannedGrasp& g : plan.value().grasps) out.grasps.push_back(g.grasp);
   if (!plan.value().grasps.empty()) out.best = plan.value().grasps.front().deformability;
