@@ -433,7 +433,10 @@ struct ClearingStats {
 
 /// Picks until the bin is empty, the planner finds nothing, or kMaxFailuresInARow picks fail
 /// in a row; the camera re-renders the bin after every pick (picked objects leave; the others
-/// stay where they lay).
+/// stay where they lay). Nothing moves after a failed pick in the simulator, so the robot
+/// remembers where it failed until the next pick changes the bin: contacts within half the
+/// failed grasp's opening of its centre are left out of the next attempts (every planner alike;
+/// otherwise each would repeat its failed grasp until the failures end the episode).
 void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
               const Planner& planner, const Models& models, const core::Gripper& gripper,
               int max_attempts, ClearingStats* stats) {
@@ -451,6 +454,7 @@ void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
   ++stats->bins;
   stats->objects += static_cast<int>(scene.objects.size());
   int picked = 0, damaged = 0, failures = 0;
+  cv::Mat1b allowed = roi.clone();  // the workspace less the places of failed picks
   for (int attempt = 0;
        attempt < max_attempts && !scene.objects.empty() && failures < kMaxFailuresInARow;
        ++attempt) {
@@ -459,7 +463,7 @@ void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
     sim::RenderOptions render = spec.render;
     render.noise.seed = generated.scene_seed + static_cast<std::uint64_t>(attempt) * 7919u;
     const sim::RenderedViews views = sim::Render(raycaster.value(), render);
-    const Plan plan = RunPlanner(planner, views.depth, camera, roi, {}, models, gripper);
+    const Plan plan = RunPlanner(planner, views.depth, camera, allowed, {}, models, gripper);
     stats->detect_ms.push_back(plan.detect_ms);
     if (plan.grasps.empty()) break;  // nothing changes until something is picked
     ++stats->attempts;
@@ -468,9 +472,16 @@ void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
         sim::SimGraspFromCamera(plan.grasps.front(), render.world_from_camera), gripper);
     if (!exec.ok() || !exec.value().succeeded()) {
       ++failures;
+      const core::Grasp& failed = plan.grasps.front();
+      cv::circle(allowed,
+                 cv::Point(static_cast<int>(std::lround(failed.center_u_px)),
+                           static_cast<int>(std::lround(failed.center_v_px))),
+                 std::max(1, static_cast<int>(std::lround(failed.opening_px / 2))), cv::Scalar(0),
+                 cv::FILLED);
       continue;
     }
     failures = 0;
+    roi.copyTo(allowed);
     const sim::GraspExecution& e = exec.value();
     ++picked;
     damaged += e.damaged ? 1 : 0;
