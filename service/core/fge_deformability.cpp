@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <opencv2/imgproc.hpp>
@@ -80,7 +81,7 @@ cv::Mat1f StiffnessOf(const cv::Mat1f& deformability) {
 /// The target's stiff part: pixels in the mask and in scene.contact_allowed at least
 /// stiff_part_fraction of the target's maximum stiffness there, unless the two parts differ by
 /// less than min_part_contrast in mean stiffness (then the whole mask: one material seen through
-/// a noisy map, as rigid targets packed among sponges look).
+/// a noisy map, as rigid targets packed among sponges look; infinity: always the whole mask).
 cv::Mat1b StiffPart(const Scene& scene, const cv::Mat1b& target, const cv::Mat1f& stiffness,
                     const DeformabilityParams& params, double min_part_contrast) {
   cv::Mat1b allowed = target.clone();
@@ -355,10 +356,18 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   // Pass 1 keeps every soft part out of the contact (thesis §5.3.3). Only when no target gives a
   // grasp that way, pass 2 lets a target's soft-looking pixels be contact where they differ from
   // the rest by less than min_part_contrast (a learned map shows rigid objects packed among
-  // sponges half soft); real parts stay out.
-  for (const double contrast : {0.0, params.min_part_contrast}) {
-    const bool second = contrast > 0;
-    if (result.target_id > 0 || (second && params.min_part_contrast == 0)) break;
+  // sponges half soft); real parts stay out. A target the request named gets a last pass on
+  // the whole of it (the gentlest closing region still ranks first): the user asked for that
+  // object, and the rule would otherwise leave a bottle whose cap is out of reach, or a carton
+  // whose soft-looking lid the rule cuts away, with no grasp at all.
+  const bool named = params.target_id > 0;
+  const double passes[] = {0.0, params.min_part_contrast,
+                           named ? std::numeric_limits<double>::infinity() : 0.0};
+  for (std::size_t pass = 0; pass < std::size(passes); ++pass) {
+    const double contrast = passes[pass];
+    if (result.target_id > 0 || (pass > 0 && (contrast == 0 || params.min_part_contrast == 0))) {
+      break;
+    }
     int planned = 0;
     for (const TargetStats& candidate : order) {
       if (planned >= params.max_targets) break;
@@ -368,12 +377,12 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
       }
       const int id = candidate.id;
       ++planned;
-      if (!second) result.tried_ids.push_back(id);
+      if (pass == 0) result.tried_ids.push_back(id);
       const cv::Mat1b grown = GrownTarget(objects, id);
       const cv::Mat1b contact = StiffPart(scene, grown, stiffness, params, contrast);
-      if (second &&
-          cv::countNonZero(contact != StiffPart(scene, grown, stiffness, params, 0.0)) == 0) {
-        continue;  // no low-contrast soft part: pass 1 saw this target as it is
+      if (pass > 0 && cv::countNonZero(contact != StiffPart(scene, grown, stiffness, params,
+                                                            passes[pass - 1])) == 0) {
+        continue;  // nothing more allowed than the last pass saw
       }
       // Grasps that touch no neighbour first; pressing soft neighbours aside only when the
       // target gives none without (a "neighbour" is sometimes a piece of the target itself that
@@ -386,7 +395,7 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
         if (found != 0) break;  // a grasp (kept or not better than the best): no pressing needed
       }
     }
-    result.soft_part_allowed = second && result.target_id > 0;
+    result.soft_part_allowed = pass > 0 && result.target_id > 0;
   }
   if (result.target_id == 0 && params.whole_scene_fallback && params.target_id == 0) {
     StiffnessFgeParams whole;

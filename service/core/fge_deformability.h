@@ -60,7 +60,8 @@ struct DeformabilityParams {
   /// Only when no target gives a grasp with every soft part kept out, targets are planned again
   /// with soft-looking pixels allowed as contact where the two parts differ by less than this in
   /// mean stiffness: a learned map shows rigid objects packed among sponges half soft, and the
-  /// rule then cut most of them away (docs/deformability.md). 0 = never.
+  /// rule then cut most of them away (docs/deformability.md). A named target (target_id) that
+  /// still gives none is planned whole in a last pass. 0 = never (neither pass).
   double min_part_contrast = 0.3;
   /// Neighbour pixels softer than this (deformability) are not collisions up to
   /// max_press_depth_m: a finger may press them aside, but only when the target gives no grasp
@@ -95,8 +96,9 @@ struct DeformabilityResult {
   int target_id = 0;           ///< whose grasps these are; 0 when no target gave a grasp
   std::vector<int> tried_ids;  ///< targets planned, in order
   bool fallback = false;       ///< the grasps come from the whole-scene fallback
-  /// The grasps come from the second pass: the target's low-contrast soft-looking pixels were
-  /// allowed as contact (min_part_contrast).
+  /// The grasps may close on soft-looking pixels of the target: they come from the second pass
+  /// (low-contrast soft parts allowed, min_part_contrast) or, for a named target, the last pass
+  /// (the whole target allowed).
   bool soft_part_allowed = false;
   std::vector<DeformabilityGrasp> grasps;  ///< best first, all on target_id
 };

@@ -224,8 +224,10 @@ TEST(DetectGraspsDeformability, ALowContrastSoftPartIsContactOnlyWhenNothingElse
   // One object: an 18 mm arm and a 60 x 70 mm block (wider than the 50 mm stroke both ways).
   // The map shows the arm at stiffness 0.24 and the block at 0.5: below half the maximum, but
   // only 0.26 apart, as a learned map shows a rigid object among sponges. Kept out of the
-  // contact, the object has no grasp; the second pass allows the arm and says so. With a clear
-  // contrast (the arm at 0.1), or with the second pass off, the arm is never contact.
+  // contact, the object has no grasp; the second pass allows the arm and says so. With the
+  // second pass off the arm is never contact. With a clear contrast (the arm at 0.1) the policy
+  // never makes it contact, while a request that names the object gets the whole of it in a
+  // last pass, flagged the same way.
   SceneSpec spec;
   spec.boxes = {Box{-0.05, 0.0, 0.018, 0.070, 0.040, 0.0, 1},
                 Box{0.06, 0.0, 0.060, 0.070, 0.040, 0.0, 2}};
@@ -246,9 +248,18 @@ TEST(DetectGraspsDeformability, ALowContrastSoftPartIsContactOnlyWhenNothingElse
           .grasps.empty());
   params.min_part_contrast = DeformabilityParams{}.min_part_contrast;
   const Prepared parts = Make(spec, {{1, 1}, {2, 1}}, {{1, 0.9f}, {2, 0.5f}}, {0.9f});
-  EXPECT_TRUE(
-      DetectGraspsDeformability(parts.scene, parts.synth.camera, parts.objects, gripper, params)
-          .grasps.empty());
+  params.target_id = 0;
+  params.whole_scene_fallback = false;
+  const auto by_policy =
+      DetectGraspsDeformability(parts.scene, parts.synth.camera, parts.objects, gripper, params);
+  EXPECT_EQ(by_policy.tried_ids, (std::vector<int>{1}));
+  EXPECT_TRUE(by_policy.grasps.empty());
+  params.target_id = 1;
+  const auto named =
+      DetectGraspsDeformability(parts.scene, parts.synth.camera, parts.objects, gripper, params);
+  EXPECT_TRUE(named.soft_part_allowed);
+  ASSERT_FALSE(named.grasps.empty());
+  EXPECT_EQ(BoxAtCenter(parts, named.grasps.front().grasp), 1);
 }
 
 TEST(DetectGraspsDeformability, TheSmallestOpeningThatWorksWins) {

@@ -37,6 +37,8 @@ constexpr float kHardPart = 0.5f;
 /// around it, at least kMinSpongeRing of the ring.
 constexpr int kRingPx = 10;
 constexpr double kMinSpongeRing = 0.25;
+/// Obstacles: a target must show at least this share of its own silhouette (nothing lies on it).
+constexpr double kMinVisibleFraction = 0.8;
 /// Bin clearing stops after this many failed picks in a row.
 constexpr int kMaxFailuresInARow = 3;
 /// The workspace ROI's margin inside the bin walls, pixels.
@@ -360,35 +362,6 @@ void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& ra
   }
 }
 
-/// Obstacles: the non-sponge object with the largest sponge share of the ring around its
-/// visible mask (at least kMinSpongeRing); 0 when none qualifies.
-int PickTarget(const sim::SimScene& scene, const cv::Mat1w& labels) {
-  cv::Mat1b sponge(labels.size(), static_cast<unsigned char>(0));
-  for (const auto& o : scene.objects) {
-    if (o.object && o.object->category == "sponge") sponge.setTo(255, labels == o.instance_id);
-  }
-  const cv::Mat kernel =
-      cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * kRingPx + 1, 2 * kRingPx + 1));
-  int best = 0;
-  double best_share = kMinSpongeRing;
-  for (const auto& o : scene.objects) {
-    if (!o.object || o.object->category == "sponge") continue;
-    const cv::Mat1b mask = labels == o.instance_id;
-    if (cv::countNonZero(mask) < 200) continue;  // mostly hidden: not a fair target
-    cv::Mat1b ring;
-    cv::dilate(mask, ring, kernel);
-    ring &= ~mask;
-    const int ring_px = cv::countNonZero(ring);
-    if (ring_px == 0) continue;
-    const double share = static_cast<double>(cv::countNonZero(ring & sponge)) / ring_px;
-    if (share >= best_share) {
-      best_share = share;
-      best = o.instance_id;
-    }
-  }
-  return best;
-}
-
 /// The narrowest horizontal extent of an object at rest, over 32 directions: wider than the
 /// stroke, no top-down two-finger grasp can close on it.
 double NarrowestWidthM(const sim::PlacedObject& placed) {
@@ -405,6 +378,67 @@ double NarrowestWidthM(const sim::PlacedObject& placed) {
     narrowest = std::min(narrowest, hi - lo);
   }
   return narrowest;
+}
+
+/// Candidate targets of the obstacles task passed over because no planner could succeed on them.
+struct TargetSkips {
+  int wider_than_the_stroke = 0;  ///< wider than the stroke in every direction
+  int covered = 0;                ///< less than kMinVisibleFraction of it in view
+};
+
+/// The share of an object's own silhouette (rendered alone on the support) that the camera
+/// sees in the scene: below 1 where something lies on it or stands in front of it.
+double VisibleFraction(const sim::SimScene& scene, const sim::PlacedObject& object,
+                       const cv::Mat1w& labels, const sim::RenderOptions& render) {
+  sim::SimScene alone;
+  alone.support = scene.support;
+  alone.objects = {object};
+  auto raycaster = sim::SceneRaycaster::Build(alone);
+  if (!raycaster.ok()) return 0;
+  const int own =
+      cv::countNonZero(sim::Render(raycaster.value(), render).labels == object.instance_id);
+  return own > 0 ? static_cast<double>(cv::countNonZero(labels == object.instance_id)) / own : 0;
+}
+
+/// Obstacles: the non-sponge object with the largest sponge share of the ring around its
+/// visible mask (at least kMinSpongeRing) that a two-finger grasp could take at all (as the
+/// thesis' targets, placed among sponges, not under them): not wider than the stroke in every
+/// direction and at least kMinVisibleFraction in view. 0 when none qualifies.
+int PickTarget(const sim::SimScene& scene, const cv::Mat1w& labels,
+               const sim::RenderOptions& render, double stroke_m, TargetSkips* skips) {
+  cv::Mat1b sponge(labels.size(), static_cast<unsigned char>(0));
+  for (const auto& o : scene.objects) {
+    if (o.object && o.object->category == "sponge") sponge.setTo(255, labels == o.instance_id);
+  }
+  const cv::Mat kernel =
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * kRingPx + 1, 2 * kRingPx + 1));
+  std::vector<std::pair<double, const sim::PlacedObject*>> candidates;  // (share, object)
+  for (const auto& o : scene.objects) {
+    if (!o.object || o.object->category == "sponge") continue;
+    const cv::Mat1b mask = labels == o.instance_id;
+    if (cv::countNonZero(mask) < 200) continue;  // mostly hidden: not a fair target
+    cv::Mat1b ring;
+    cv::dilate(mask, ring, kernel);
+    ring &= ~mask;
+    const int ring_px = cv::countNonZero(ring);
+    if (ring_px == 0) continue;
+    const double share = static_cast<double>(cv::countNonZero(ring & sponge)) / ring_px;
+    if (share >= kMinSpongeRing) candidates.emplace_back(share, &o);
+  }
+  // The largest share first; among equal shares the later object.
+  std::reverse(candidates.begin(), candidates.end());
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  for (const auto& [share, o] : candidates) {
+    if (NarrowestWidthM(*o) > stroke_m) {
+      ++skips->wider_than_the_stroke;
+    } else if (VisibleFraction(scene, *o, labels, render) < kMinVisibleFraction) {
+      ++skips->covered;
+    } else {
+      return o->instance_id;
+    }
+  }
+  return 0;
 }
 
 struct ClearingStats {
@@ -586,6 +620,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     const cv::Mat1b roi = sim::BinWorkspaceRoi(spec, spec.render.camera, kBinMarginPx);
     std::vector<Stats> stats(planners.size());
     int used = 0, skipped = 0;
+    TargetSkips target_skips;
     sim::ProgressBar bar(std::string(TaskName(task)) + " scenes", wanted);
     for (int i = 0; used < wanted && i < 5 * wanted + 10; ++i) {
       bar.Update(used);
@@ -597,7 +632,8 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
       int target_id = 0;
       cv::Mat1b target_mask;
       if (task == Task::kObstacles) {
-        target_id = PickTarget(g.scene, g.views.labels);
+        target_id = PickTarget(g.scene, g.views.labels, spec.render, gripper.opening_stroke_m,
+                               &target_skips);
         if (target_id == 0) {
           ++skipped;  // no object packed among sponges in this draw
           continue;
@@ -617,6 +653,9 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     bar.Update(wanted);
     json task_json = {{"scenes", used},
                       {"draws_without_a_target_among_sponges", skipped},
+                      {"candidate_targets_passed_over",
+                       {{"wider_than_the_stroke", target_skips.wider_than_the_stroke},
+                        {"covered", target_skips.covered}}},
                       {"spec", sim::SceneSpecToJson(spec)},
                       {"planners", json::object()},
                       {"versus_fge", json::object()}};
