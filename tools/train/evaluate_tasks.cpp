@@ -465,6 +465,21 @@ struct ClearingStats {
   }
 };
 
+/// Paired comparison with FGE on the same bins: the difference of the cleared fractions, with its
+/// 95 % interval over a bin bootstrap.
+json VersusClearing(const ClearingStats& s, const ClearingStats& base) {
+  const std::size_t n = base.cleared_fraction.size();
+  if (n == 0 || s.cleared_fraction.size() != n) return json();
+  const SceneStatistic difference = [&](std::span<const int> k) {
+    return SampleMean(s.cleared_fraction, k) - SampleMean(base.cleared_fraction, k);
+  };
+  const Interval ci =
+      BootstrapInterval(static_cast<int>(n), difference, kBootstrapResamples, kBootstrapSeed);
+  return {{"cleared_fraction_difference",
+           {{"value", Num(difference(AllScenes(n)))},
+            {"ci95", json::array({Num(ci.low), Num(ci.high)})}}}};
+}
+
 /// Picks until the bin is empty, the planner finds nothing, or kMaxFailuresInARow picks fail
 /// in a row; the camera re-renders the bin after every pick (picked objects leave; the others
 /// stay where they lay). Nothing moves after a failed pick in the simulator, so the robot
@@ -682,6 +697,11 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
         bin_json[planners[p].name] = clearing[p].ToJson();
       }
       task_json["bin_clearing"] = bin_json;
+      json versus = json::object();
+      for (std::size_t p = 1; p < planners.size(); ++p) {
+        versus[planners[p].name] = VersusClearing(clearing[p], clearing[0]);
+      }
+      task_json["bin_clearing_versus_fge"] = versus;
     }
     out["tasks"][TaskName(task)] = task_json;
   }
