@@ -58,14 +58,19 @@ Grasp GraspAt(const Prepared& p, double x_m, double tip_height_m, double opening
   return g;
 }
 
+// An 85 mm grasp, fingertips 50 mm up, whose right finger's outer face lies `past_wall_m` beyond
+// the wall's inner face (negative: short of it).
+Grasp BesideTheWall(const Prepared& p, const Gripper& gripper, double past_wall_m) {
+  const double opening = 0.085;
+  return GraspAt(p, kWallInnerXm + past_wall_m - opening / 2 - gripper.finger_thickness_m, 0.05,
+                 opening);
+}
+
 TEST(FingerClearanceTest, AFingerOverlappingTheWallTopByTwoMillimetresIsBlocked) {
   const Prepared p = Make();
   Gripper gripper;  // 15 mm wide, 8 mm thick fingers
-  const double opening = 0.085;
-  // The right finger's outer face 2 mm past the wall's inner face, fingertips 50 mm up: the
-  // wall's top (100 mm) stands in the finger's column.
-  const double centre = kWallInnerXm + 0.002 - opening / 2 - gripper.finger_thickness_m;
-  const Grasp g = GraspAt(p, centre, 0.05, opening);
+  // The wall's top (100 mm) stands in the right finger's column.
+  const Grasp g = BesideTheWall(p, gripper, 0.002);
   const FingerClearance clearance(p.scene, p.camera);
   // The wall top seen by the pixels of a 2 x 15 mm strip at 0.5 m (0.95 mm per pixel): about 2 x
   // 16 points, plus the inner face's points above the fingertips.
@@ -76,9 +81,7 @@ TEST(FingerClearanceTest, AFingerOverlappingTheWallTopByTwoMillimetresIsBlocked)
 TEST(FingerClearanceTest, OneMillimetreFromTheWallIsClear) {
   const Prepared p = Make();
   Gripper gripper;
-  const double opening = 0.085;
-  const double centre = kWallInnerXm - 0.001 - opening / 2 - gripper.finger_thickness_m;
-  const Grasp g = GraspAt(p, centre, 0.05, opening);
+  const Grasp g = BesideTheWall(p, gripper, -0.001);
   const FingerClearance clearance(p.scene, p.camera);
   EXPECT_EQ(clearance.PointsInFingers(g, gripper), 0);
   EXPECT_TRUE(clearance.Clear(g, gripper));
@@ -101,9 +104,7 @@ TEST(FingerClearanceTest, HeightsOfTheSceneDecideWhatStandsAboveTheFingertips) {
   // A planner's view lowers the surfaces a finger may press into: the same finger then passes.
   Prepared p = Make();
   Gripper gripper;
-  const double opening = 0.085;
-  const double centre = kWallInnerXm + 0.002 - opening / 2 - gripper.finger_thickness_m;
-  const Grasp g = GraspAt(p, centre, 0.05, opening);
+  const Grasp g = BesideTheWall(p, gripper, 0.002);
   p.scene.height_m = cv::min(p.scene.height_m, 0.04f);
   const FingerClearance clearance(p.scene, p.camera);
   EXPECT_EQ(clearance.PointsInFingers(g, gripper), 0);
