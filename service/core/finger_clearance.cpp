@@ -16,7 +16,10 @@ int FingerClearance::PointsInFingers(const Grasp& g, const Gripper& gripper) con
   const cv::Mat1f& depth = scene_.depth_filled_m;
   const cv::Mat1f& height = scene_.height_m;
   const double tip_depth = g.p_CG_m[2];
-  if (depth.empty() || !(tip_depth > 0) || !(nearest_depth_m_ > 0)) return 0;
+  if (depth.empty() || !(tip_depth > 0) || !(nearest_depth_m_ > 0) || !std::isfinite(g.p_CG_m[0]) ||
+      !std::isfinite(g.p_CG_m[1]) || !std::isfinite(tip_depth)) {
+    return 0;
+  }
   const double ca = std::cos(g.angle_rad);
   const double sa = std::sin(g.angle_rad);
   const double half_width = gripper.finger_width_m / 2;
@@ -41,10 +44,14 @@ int FingerClearance::PointsInFingers(const Grasp& g, const Gripper& gripper) con
         }
       }
     }
-    const int u0 = std::max(0, static_cast<int>(std::floor(u_lo)) - 1);
-    const int u1 = std::min(depth.cols - 1, static_cast<int>(std::ceil(u_hi)) + 1);
-    const int v0 = std::max(0, static_cast<int>(std::floor(v_lo)) - 1);
-    const int v1 = std::min(depth.rows - 1, static_cast<int>(std::ceil(v_hi)) + 1);
+    // Clamped in double first: a surface very near the camera projects far outside the image.
+    const auto clamp_to = [](double x, int size) {
+      return static_cast<int>(std::clamp(x, -1.0, static_cast<double>(size)));
+    };
+    const int u0 = std::max(0, clamp_to(std::floor(u_lo), depth.cols) - 1);
+    const int u1 = std::min(depth.cols - 1, clamp_to(std::ceil(u_hi), depth.cols) + 1);
+    const int v0 = std::max(0, clamp_to(std::floor(v_lo), depth.rows) - 1);
+    const int v1 = std::min(depth.rows - 1, clamp_to(std::ceil(v_hi), depth.rows) + 1);
     int inside = 0;
     for (int v = v0; v <= v1; ++v) {
       const float* z_row = depth.ptr<float>(v);

@@ -110,11 +110,25 @@ TEST(FingerClearanceTest, HeightsOfTheSceneDecideWhatStandsAboveTheFingertips) {
   EXPECT_EQ(clearance.PointsInFingers(g, gripper), 0);
 }
 
+TEST(FingerClearanceTest, ASurfaceAlmostAtTheCameraStillGivesABoundedSearch) {
+  // One pixel 1 um from the camera: the finger columns' image then spans far beyond the frame;
+  // the search stays inside it and still finds the wall.
+  Prepared p = Make();
+  p.scene.depth_filled_m(0, 0) = 1e-6f;
+  Gripper gripper;
+  const FingerClearance clearance(p.scene, p.camera);
+  EXPECT_GE(clearance.PointsInFingers(BesideTheWall(p, gripper, 0.002), gripper), 20);
+  EXPECT_EQ(clearance.PointsInFingers(BesideTheWall(p, gripper, -0.001), gripper), 0);
+}
+
 TEST(FingerClearanceTest, AnEmptySceneOrAGraspBehindTheCameraBlocksNothing) {
   Prepared p = Make();
   Gripper gripper;
   Grasp g = GraspAt(p, 0.0, 0.05, 0.085);
   g.p_CG_m[2] = -0.1;
+  EXPECT_EQ(FingerClearance(p.scene, p.camera).PointsInFingers(g, gripper), 0);
+  g = GraspAt(p, 0.0, 0.05, 0.085);
+  g.p_CG_m[0] = std::nan("");
   EXPECT_EQ(FingerClearance(p.scene, p.camera).PointsInFingers(g, gripper), 0);
   Scene empty;
   EXPECT_EQ(FingerClearance(empty, p.camera).PointsInFingers(GraspAt(p, 0.0, 0.05, 0.085), gripper),
