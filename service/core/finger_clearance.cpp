@@ -22,9 +22,10 @@ int FingerClearance::PointsInFingers(const Grasp& g, const Gripper& gripper) con
   }
   const double ca = std::cos(g.angle_rad);
   const double sa = std::sin(g.angle_rad);
-  const double half_width = gripper.finger_width_m / 2;
-  const double inner = g.opening_m / 2;
-  const double outer = inner + gripper.finger_thickness_m;
+  // The finger box grown by kMarginM on every side.
+  const double half_width = gripper.finger_width_m / 2 + kMarginM;
+  const double inner = g.opening_m / 2 - kMarginM;
+  const double outer = g.opening_m / 2 + gripper.finger_thickness_m + kMarginM;
   const double top_depth = std::min(nearest_depth_m_, tip_depth);
   const float min_height = static_cast<float>(g.grasp_height_m + kToleranceM);
   int worst = 0;

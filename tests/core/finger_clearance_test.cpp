@@ -78,13 +78,15 @@ TEST(FingerClearanceTest, AFingerOverlappingTheWallTopByTwoMillimetresIsBlocked)
   EXPECT_FALSE(clearance.Clear(g, gripper));
 }
 
-TEST(FingerClearanceTest, OneMillimetreFromTheWallIsClear) {
+TEST(FingerClearanceTest, TwoMillimetresFromTheWallIsClearHalfAMillimetreIsNot) {
+  // The finger box is grown by FingerClearance::kMarginM (1 mm) on every side.
   const Prepared p = Make();
   Gripper gripper;
-  const Grasp g = BesideTheWall(p, gripper, -0.001);
   const FingerClearance clearance(p.scene, p.camera);
-  EXPECT_EQ(clearance.PointsInFingers(g, gripper), 0);
-  EXPECT_TRUE(clearance.Clear(g, gripper));
+  const Grasp clear = BesideTheWall(p, gripper, -0.002);
+  EXPECT_EQ(clearance.PointsInFingers(clear, gripper), 0);
+  EXPECT_TRUE(clearance.Clear(clear, gripper));
+  EXPECT_FALSE(clearance.Clear(BesideTheWall(p, gripper, -0.0005), gripper));
 }
 
 TEST(FingerClearanceTest, SurfacesBelowTheFingertipsAreNotInTheWay) {
@@ -94,9 +96,12 @@ TEST(FingerClearanceTest, SurfacesBelowTheFingertipsAreNotInTheWay) {
   const FingerClearance clearance(p.scene, p.camera);
   EXPECT_EQ(clearance.PointsInFingers(GraspAt(p, -0.10, 0.025, 0.03), gripper), 0);
   // Fingertips at 10 mm: the box top (20 mm, 0.58 m from the camera) fills each finger's 8 x
-  // 15 mm footprint, seen with pixels 0.58 / 525 m apart: about 98 points.
+  // 15 mm footprint grown by the 1 mm margin, seen with pixels 0.58 / 525 m apart: about 139
+  // points.
   const double pitch_m = 0.58 / p.camera.fx;
-  const double expected = gripper.finger_thickness_m * gripper.finger_width_m / (pitch_m * pitch_m);
+  const double m = 2 * FingerClearance::kMarginM;
+  const double expected =
+      (gripper.finger_thickness_m + m) * (gripper.finger_width_m + m) / (pitch_m * pitch_m);
   EXPECT_NEAR(clearance.PointsInFingers(GraspAt(p, -0.10, 0.010, 0.03), gripper), expected, 12);
 }
 
@@ -118,7 +123,7 @@ TEST(FingerClearanceTest, ASurfaceAlmostAtTheCameraStillGivesABoundedSearch) {
   Gripper gripper;
   const FingerClearance clearance(p.scene, p.camera);
   EXPECT_GE(clearance.PointsInFingers(BesideTheWall(p, gripper, 0.002), gripper), 20);
-  EXPECT_EQ(clearance.PointsInFingers(BesideTheWall(p, gripper, -0.001), gripper), 0);
+  EXPECT_EQ(clearance.PointsInFingers(BesideTheWall(p, gripper, -0.002), gripper), 0);
 }
 
 TEST(FingerClearanceTest, AnEmptySceneOrAGraspBehindTheCameraBlocksNothing) {
