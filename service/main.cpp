@@ -171,6 +171,7 @@ int main(int argc, char** argv) {
               << " (GET / answers 404): run scripts/build.sh or pass --web-root\n";
   }
 
+  models::KeepFreedMemoryForReuse();  // the models' activations, freed on worker threads
   auto stiffness_model = LoadStiffnessModel(config.stiffness_model);
   if (!stiffness_model) {
     std::cerr << "softgrasp-server: the stiffness model cannot be loaded: "

@@ -9,6 +9,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "service/io/depth_codec.h"
+#include "service/models/stiffness_model.h"
 #include "tests/rest/server_fixture.h"
 #include "tests/support/synthetic_scene.h"
 
@@ -139,6 +140,7 @@ int main(int argc, char** argv) {
   // One OpenCV thread for the engine, as the FGE goal states; libtorch keeps its default (one
   // thread per core: 2 here), as in softgrasp-server.
   cv::setNumThreads(1);
+  softgrasp::models::KeepFreedMemoryForReuse();  // as softgrasp-server does
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

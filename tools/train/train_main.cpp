@@ -143,6 +143,7 @@ int RunStiffness(std::vector<std::string> argv) {
 int main(int argc, char** argv) {
   if (argc < 2) return Fail(std::string("missing command\n") + kUsage);
   const std::string command = argv[1];
+  softgrasp::models::KeepFreedMemoryForReuse();  // training and evaluation allocate per step
   std::vector<std::string> args(argv + 2, argv + argc);
   if (command == "stiffness") return RunStiffness(std::move(args));
   if (command == "evaluate") return softgrasp::tools::RunEvaluate(std::move(args));
