@@ -7,6 +7,7 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "service/bridge/bridge.h"
@@ -172,6 +173,9 @@ int main(int argc, char** argv) {
   }
 
   models::KeepFreedMemoryForReuse();  // the models' activations, freed on worker threads
+  models::SetTorchThreads(config.torch_threads > 0
+                              ? config.torch_threads
+                              : static_cast<int>(std::thread::hardware_concurrency()));
   auto stiffness_model = LoadStiffnessModel(config.stiffness_model);
   if (!stiffness_model) {
     std::cerr << "softgrasp-server: the stiffness model cannot be loaded: "

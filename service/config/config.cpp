@@ -248,6 +248,8 @@ std::vector<Entry> Table(ServiceConfig& c) {
            "GQ-CNN model file for strategy=gqcnn, or none (default: the shipped "
            "../models/gqcnn.pt)",
            String(&c.gqcnn_model)),
+      num("models", "torch_threads", "SOFTGRASP_TORCH_THREADS", "--torch-threads", 0, 256,
+          "threads of a model's forward pass; 0 = one per CPU", &c.torch_threads),
       text("robot", "enabled", "SOFTGRASP_ROBOT_ENABLED", nullptr, Text::kBool,
            "serve the robot endpoints (docs/robot-api.md)", Bool(&r.enabled)),
       num("robot", "domain_id", "SOFTGRASP_ROBOT_DOMAIN_ID", nullptr, 0, 232, "DDS domain",

@@ -71,6 +71,9 @@ struct ServiceConfig {
   /// GQ-CNN model file (docs/gqcnn.md) for strategy=gqcnn. Empty: softgrasp-server uses
   /// DefaultGqcnnModel() next to its executable; "none": no model (strategy=gqcnn answers 400).
   std::string gqcnn_model;
+  /// Threads of one model's forward pass (libtorch intra-op, process-wide). 0: one per online
+  /// CPU. libtorch's own default on a worker thread can be 1 (it counts physical cores).
+  int torch_threads = 0;
   RobotConfig robot;
 };
 

@@ -292,11 +292,12 @@ int PlanOpenings(const Scene& scene, const TargetView& view, bool pressed, const
                  const DeformabilityParams& params, int id, const cv::Mat1w& labels,
                  double* best_deformability, DeformabilityResult* result) {
   const FingerClearance clearance(view.scene, camera);
+  const fge_detail::SliceSearch search = StiffnessSliceSearch(view.scene, camera, gripper, sp);
   for (std::size_t k = 0; k < params.opening_fractions.size(); ++k) {
     const double fraction = params.opening_fractions[k];
     Gripper opened = gripper;
     opened.opening_stroke_m = gripper.opening_stroke_m * fraction;
-    auto grasps = DetectGraspsStiffness(view.scene, camera, stiffness, opened, sp);
+    auto grasps = DetectGraspsStiffness(view.scene, camera, stiffness, opened, sp, search);
     if (k + 1 < params.opening_fractions.size()) {
       std::erase_if(grasps, [&](const Grasp& g) { return g.score < params.min_graspability; });
     }

@@ -13,6 +13,17 @@ namespace softgrasp::core {
 namespace {
 
 using fge_detail::AngleOf;
+
+void CheckParams(const Camera& camera, const Gripper& gripper, const StiffnessFgeParams& params) {
+  fge_detail::CheckInputs(camera, gripper, params.fge);
+  if (!(params.centre_weight >= 0) || params.candidate_step_px < 1 ||
+      params.candidate_step_px > 16 || params.max_slice_batches < 0 ||
+      !(params.key_step >= 0 && params.key_step <= 1)) {
+    throw std::invalid_argument(
+        "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16, "
+        "max_slice_batches >= 0, key_step in [0, 1]");
+  }
+}
 using fge_detail::GripperPx;
 using fge_detail::Near;
 using fge_detail::SimilarAngle;
@@ -171,24 +182,32 @@ std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<Sl
 std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
                                          const cv::Mat1f& stiffness_map, const Gripper& gripper,
                                          const StiffnessFgeParams& params) {
+  return DetectGraspsStiffness(scene, camera, stiffness_map, gripper, params,
+                               StiffnessSliceSearch(scene, camera, gripper, params));
+}
+
+fge_detail::SliceSearch StiffnessSliceSearch(const Scene& scene, const Camera& camera,
+                                             const Gripper& gripper,
+                                             const StiffnessFgeParams& params) {
+  CheckParams(camera, gripper, params);
+  if (scene.height_m.empty()) return {};
+  return fge_detail::SearchSlices(scene.height_m, scene.contact_allowed,
+                                  fge_detail::PxPerMetre(scene.floor, camera, 0), gripper,
+                                  params.fge);
+}
+
+std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
+                                         const cv::Mat1f& stiffness_map, const Gripper& gripper,
+                                         const StiffnessFgeParams& params,
+                                         const fge_detail::SliceSearch& search) {
   const FgeParams& fp = params.fge;
-  fge_detail::CheckInputs(camera, gripper, fp);
-  if (!(params.centre_weight >= 0) || params.candidate_step_px < 1 ||
-      params.candidate_step_px > 16 || params.max_slice_batches < 0 ||
-      !(params.key_step >= 0 && params.key_step <= 1)) {
-    throw std::invalid_argument(
-        "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16, "
-        "max_slice_batches >= 0, key_step in [0, 1]");
-  }
+  CheckParams(camera, gripper, params);
   if (scene.height_m.empty()) return {};
   if (stiffness_map.size() != scene.height_m.size()) {
     throw std::invalid_argument(
         "DetectGraspsStiffness: the stiffness map must have the scene's "
         "size");
   }
-  const auto search =
-      fge_detail::SearchSlices(scene.height_m, scene.contact_allowed,
-                               fge_detail::PxPerMetre(scene.floor, camera, 0), gripper, fp);
   // NaN / out-of-range map values count as the softest score (never preferred).
   cv::Mat1f stiffness = stiffness_map.clone();
   cv::patchNaNs(stiffness, 0.0);

@@ -8,6 +8,7 @@
 
 #include "service/core/depth.h"
 #include "service/core/fge.h"
+#include "service/core/fge_geometry.h"
 #include "service/core/grasp.h"
 #include "service/core/preprocess.h"
 
@@ -39,6 +40,20 @@ struct StiffnessFgeParams {
 std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
                                          const cv::Mat1f& stiffness_map, const Gripper& gripper,
                                          const StiffnessFgeParams& params = {});
+
+/// The slices and graspable surfaces DetectGraspsStiffness searches on `scene`. They depend on
+/// the scene, the camera, params.fge and the finger length, not on the opening stroke: a planner
+/// that tries several openings on one scene computes them once (about 10 ms on 640x480).
+fge_detail::SliceSearch StiffnessSliceSearch(const Scene& scene, const Camera& camera,
+                                             const Gripper& gripper,
+                                             const StiffnessFgeParams& params = {});
+
+/// As above on a `search` that StiffnessSliceSearch made for the same scene, camera and params
+/// and a gripper that differs at most in its opening stroke (the same grasps as without it).
+std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
+                                         const cv::Mat1f& stiffness_map, const Gripper& gripper,
+                                         const StiffnessFgeParams& params,
+                                         const fge_detail::SliceSearch& search);
 
 /// Mean of `stiffness_map` over the pixels of `grasp`'s closing region (|a| <= opening/2,
 /// |b| <= finger width/2, pixel-centre rule) whose height is above the grasp's contact height;

@@ -7,6 +7,7 @@
 #include <benchmark/benchmark.h>
 
 #include <opencv2/core/utility.hpp>
+#include <thread>
 
 #include "service/io/depth_codec.h"
 #include "service/models/stiffness_model.h"
@@ -137,10 +138,11 @@ BENCHMARK(BM_GetHealthz)->Unit(benchmark::kMillisecond)->UseRealTime();
 }  // namespace softgrasp::rest
 
 int main(int argc, char** argv) {
-  // One OpenCV thread for the engine, as the FGE goal states; libtorch keeps its default (one
-  // thread per core: 2 here), as in softgrasp-server.
+  // One OpenCV thread for the engine, as the FGE goal states; libtorch one thread per CPU and
+  // freed memory kept, as in softgrasp-server.
   cv::setNumThreads(1);
-  softgrasp::models::KeepFreedMemoryForReuse();  // as softgrasp-server does
+  softgrasp::models::SetTorchThreads(static_cast<int>(std::thread::hardware_concurrency()));
+  softgrasp::models::KeepFreedMemoryForReuse();
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

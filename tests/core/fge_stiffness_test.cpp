@@ -257,5 +257,31 @@ TEST(DetectGraspsStiffness, Deterministic) {
   }
 }
 
+// One slice search serves every opening: the grasps are those of a search made per call.
+TEST(DetectGraspsStiffness, ASharedSliceSearchGivesTheSameGraspsForEachOpening) {
+  const Prepared s = Make(testing::ClutterSceneSpec());
+  const cv::Mat1f map = MapById(s.synth, {0.0f, 1.0f, 0.3f, 0.8f, 0.5f, 1.0f, 0.2f, 0.9f, 0.6f});
+  const Gripper full{};
+  const fge_detail::SliceSearch search = StiffnessSliceSearch(s.scene, s.synth.camera, full);
+  ASSERT_FALSE(search.slices.empty());
+  std::size_t found = 0;
+  for (const double fraction : {0.5, 0.75, 1.0}) {
+    Gripper opened = full;
+    opened.opening_stroke_m = full.opening_stroke_m * fraction;
+    const auto own = DetectGraspsStiffness(s.scene, s.synth.camera, map, opened);
+    const auto shared = DetectGraspsStiffness(s.scene, s.synth.camera, map, opened, {}, search);
+    ASSERT_EQ(own.size(), shared.size()) << "opening fraction " << fraction;
+    for (std::size_t i = 0; i < own.size(); ++i) {
+      EXPECT_EQ(own[i].center_u_px, shared[i].center_u_px);
+      EXPECT_EQ(own[i].center_v_px, shared[i].center_v_px);
+      EXPECT_EQ(own[i].angle_rad, shared[i].angle_rad);
+      EXPECT_EQ(own[i].opening_px, shared[i].opening_px);
+      EXPECT_EQ(own[i].grasp_height_m, shared[i].grasp_height_m);
+    }
+    found += own.size();
+  }
+  EXPECT_GT(found, 0u);
+}
+
 }  // namespace
 }  // namespace softgrasp::core
