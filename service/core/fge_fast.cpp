@@ -25,6 +25,9 @@ constexpr int kSeamShift = 8;
 constexpr std::uint16_t kOutsideLevel = 0x7f;  // outside the image: above every level, no contact
 constexpr int kMaxLevels = kOutsideLevel - 1;
 constexpr float kLevelMergeM = 1e-7f;  // levels closer than this are one level
+// Image pixels around a pixel that its pooled seam level depends on (SeamLevels' pairs read one
+// pixel beyond the pair, ConservativePool grows by one).
+constexpr int kSeamReachPx = 3;
 // The graspability blur runs on cells of d x d work pixels, d in {1, 2, 4} as large as keeps
 // sigma >= kMinBlurSigmaCells cells.
 constexpr double kMinBlurSigmaCells = 2.5;
@@ -550,9 +553,20 @@ FastFge::FastFge(const Scene& scene, const Camera& camera, const Gripper& grippe
   // The crop may reach past the image: there the gripper would be blind, so it is an obstacle.
   crop_ = cv::Rect(occupied.x - margin_px_, occupied.y - margin_px_,
                    occupied.width + 2 * margin_px_, occupied.height + 2 * margin_px_);
+  // Seams only where the crop needs them: whole work pixels covering kSeamReachPx image pixels
+  // more on every side give the crop the values of the whole image.
+  const int pad_work = (kSeamReachPx + scale_ - 1) / scale_;
+  const cv::Rect work_roi = cv::Rect(crop_.x - pad_work, crop_.y - pad_work,
+                                     crop_.width + 2 * pad_work, crop_.height + 2 * pad_work) &
+                            cv::Rect(cv::Point(0, 0), work_size_);
+  const cv::Rect image_roi = cv::Rect(work_roi.x * scale_, work_roi.y * scale_,
+                                      work_roi.width * scale_, work_roi.height * scale_) &
+                             cv::Rect(cv::Point(0, 0), scene.height_m.size());
+  const cv::Mat1b missing =
+      scene.missing_mask.empty() ? scene.missing_mask : scene.missing_mask(image_roi);
   const cv::Mat1f seams =
-      ConservativePool(SeamLevels(scene.height_m, scene.missing_mask, params.seam_step_m), scale_);
-  const cv::Mat1b seam_levels = CropWithBorder(LevelImage(seams, levels), crop_, 0);
+      ConservativePool(SeamLevels(scene.height_m(image_roi), missing, params.seam_step_m), scale_);
+  const cv::Mat1b seam_levels = CropWithBorder(LevelImage(seams, levels), crop_ - work_roi.tl(), 0);
   levels_ = PackLevels(CropWithBorder(work_levels, crop_, kOutsideLevel), seam_levels);
 
   double max_seam = 0;
