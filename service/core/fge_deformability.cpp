@@ -82,20 +82,34 @@ cv::Mat1f StiffnessOf(const cv::Mat1f& deformability) {
 /// stiff_part_fraction of the target's maximum stiffness there, unless the two parts differ by
 /// less than min_part_contrast in mean stiffness (then the whole mask: one material seen through
 /// a noisy map, as rigid targets packed among sponges look; infinity: always the whole mask).
-cv::Mat1b StiffPart(const Scene& scene, const cv::Mat1b& target, const cv::Mat1f& stiffness,
-                    const DeformabilityParams& params, double min_part_contrast) {
-  cv::Mat1b allowed = target.clone();
-  if (!scene.contact_allowed.empty()) allowed &= scene.contact_allowed;
+/// `target_in_box`: the mask inside `box` (image pixels); the part is returned inside `box`.
+cv::Mat1b StiffPartInBox(const Scene& scene, const cv::Mat1b& target_in_box, const cv::Rect& box,
+                         const cv::Mat1f& stiffness, const DeformabilityParams& params,
+                         double min_part_contrast) {
+  cv::Mat1b allowed = target_in_box.clone();
+  if (!scene.contact_allowed.empty()) allowed &= scene.contact_allowed(box);
+  const cv::Mat1f in_box = stiffness(box);
   double max_stiffness = 0;
-  cv::minMaxLoc(stiffness, nullptr, &max_stiffness, nullptr, nullptr, allowed);
+  cv::minMaxLoc(in_box, nullptr, &max_stiffness, nullptr, nullptr, allowed);
   const cv::Mat1b soft =
-      allowed & (stiffness < static_cast<float>(params.stiff_part_fraction * max_stiffness));
+      allowed & (in_box < static_cast<float>(params.stiff_part_fraction * max_stiffness));
   const cv::Mat1b stiff = allowed & ~soft;
   if (cv::countNonZero(soft) == 0 || cv::countNonZero(stiff) == 0 ||
-      cv::mean(stiffness, stiff)[0] - cv::mean(stiffness, soft)[0] < min_part_contrast) {
+      cv::mean(in_box, stiff)[0] - cv::mean(in_box, soft)[0] < min_part_contrast) {
     return allowed;
   }
   return stiff;
+}
+
+/// StiffPartInBox on the whole image (0 outside the target's bounding box).
+cv::Mat1b StiffPart(const Scene& scene, const cv::Mat1b& target, const cv::Mat1f& stiffness,
+                    const DeformabilityParams& params, double min_part_contrast) {
+  const cv::Rect box = cv::boundingRect(target);
+  cv::Mat1b part(target.size(), static_cast<unsigned char>(0));
+  if (!box.empty()) {
+    StiffPartInBox(scene, target(box), box, stiffness, params, min_part_contrast).copyTo(part(box));
+  }
+  return part;
 }
 
 struct TargetStats {
@@ -224,10 +238,15 @@ std::vector<TargetStats> RankTargets(const Scene& scene, const ObjectMaps& objec
                                      const DeformabilityParams& params) {
   if (params.target_id > 0) return {TargetStats{params.target_id, 0, 0}};
   std::map<int, std::vector<float>> heights;
+  std::map<int, cv::Rect> boxes;  // of each instance's pixels
   for (int v = 0; v < objects.labels.rows; ++v) {
     for (int u = 0; u < objects.labels.cols; ++u) {
       const int id = objects.labels(v, u);
-      if (id == 0 || objects.scores[static_cast<std::size_t>(id - 1)] < params.min_score) continue;
+      if (id == 0) continue;
+      const cv::Rect pixel(u, v, 1, 1);
+      auto [box, first] = boxes.try_emplace(id, pixel);
+      if (!first) box->second |= pixel;
+      if (objects.scores[static_cast<std::size_t>(id - 1)] < params.min_score) continue;
       if (!scene.contact_allowed.empty() && scene.contact_allowed(v, u) == 0) continue;
       heights[id].push_back(scene.height_m(v, u));
     }
@@ -238,8 +257,10 @@ std::vector<TargetStats> RankTargets(const Scene& scene, const ObjectMaps& objec
     TargetStats s;
     s.id = id;
     s.top_m = Quantile(h, kTopQuantile);
-    const cv::Mat1b part = StiffPart(scene, objects.labels == id, stiffness, params, 0.0);
-    s.mean_deformability = 1.0 - cv::mean(stiffness, part)[0];
+    const cv::Rect& box = boxes.at(id);
+    const cv::Mat1b part =
+        StiffPartInBox(scene, objects.labels(box) == id, box, stiffness, params, 0.0);
+    s.mean_deformability = 1.0 - cv::mean(stiffness(box), part)[0];
     stats.push_back(s);
   }
   const auto higher = [](const TargetStats& a, const TargetStats& b) {
