@@ -146,6 +146,21 @@ cv::Mat1b GrownTarget(const ObjectMaps& objects, int target_id) {
   return grown;
 }
 
+/// The part of `target` joined to `seed` by 8-connected neighbours whose heights differ by at
+/// most `step_m` (DeformabilityParams::target_px); the whole target when the seed is not on it.
+cv::Mat1b ClickedPart(const Scene& scene, const cv::Mat1b& target, cv::Point seed, double step_m) {
+  if (!cv::Rect(cv::Point(0, 0), target.size()).contains(seed) || target(seed) == 0) {
+    return target;
+  }
+  constexpr unsigned char kBlocked = 1, kFilled = 2;
+  cv::Mat1b mask(target.rows + 2, target.cols + 2, kBlocked);
+  mask(cv::Rect(1, 1, target.cols, target.rows)).setTo(0, target);
+  cv::Mat heights = scene.height_m;  // only read: FLOODFILL_MASK_ONLY
+  cv::floodFill(heights, mask, seed, cv::Scalar(), nullptr, cv::Scalar(step_m), cv::Scalar(step_m),
+                8 | cv::FLOODFILL_MASK_ONLY | (kFilled << 8));
+  return mask(cv::Rect(1, 1, target.cols, target.rows)) == kFilled;
+}
+
 /// The scene the planner sees for one target: contact only on the (grown) target's stiff part
 /// (thesis §5.3.3: the soft part is never contact and stays an obstacle; `contact` as
 /// StiffPart made it). `soft`: the pixels of soft neighbours; with `press` they are lowered by
@@ -400,7 +415,10 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
       const int id = candidate.id;
       ++planned;
       if (pass == 0) result.tried_ids.push_back(id);
-      const cv::Mat1b grown = GrownTarget(objects, id);
+      cv::Mat1b grown = GrownTarget(objects, id);
+      if (named && params.target_px) {
+        grown = ClickedPart(scene, grown, *params.target_px, params.fge.seam_step_m);
+      }
       const cv::Mat1b contact = StiffPart(scene, grown, stiffness, params, contrast);
       if (pass > 0 && cv::countNonZero(contact != StiffPart(scene, grown, stiffness, params,
                                                             passes[pass - 1])) == 0) {

@@ -6,6 +6,7 @@
 /// See docs/deformability.md.
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 #include "service/core/depth.h"
@@ -45,6 +46,11 @@ struct DeformabilityParams {
   double min_score = 0.25;          ///< R: instances scoring below are never targets
   TargetPolicy policy = TargetPolicy::kHighest;
   int target_id = 0;  ///< > 0: this instance, whatever its score (wins over policy)
+  /// With target_id: the pixel that named it (a click). The target is then the part of the
+  /// instance joined to this pixel by neighbours whose heights differ by at most fge.seam_step_m:
+  /// a segmentation that merged the clicked object with a neighbour of another height (a box
+  /// with the sponge beside it) gives the clicked object only; the rest stays an obstacle.
+  std::optional<cv::Point> target_px;
   /// Pre-grasp openings tried, as fractions of the stroke, in increasing order; the smallest
   /// that gives a grasp is kept.
   std::vector<double> opening_fractions{0.5, 0.75, 1.0};

@@ -85,6 +85,7 @@ PlanError PlanDeformability(const PlanContext& c, Plan* plan) {
   core::DeformabilityParams params = c.options.deformability;
   params.fge = c.options.fge;
   params.target_id = c.target_id;
+  if (c.target_id > 0) params.target_px = c.options.target_px;
   const Instances& in = *c.instances;
   const core::DeformabilityResult planned = core::DetectGraspsDeformability(
       c.scene, c.camera, {in.labels, in.scores, in.deformability, in.foreground}, c.options.gripper,
@@ -274,6 +275,7 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
     target_id = InstanceAt(plan.instances->labels, options.target_px->x, options.target_px->y);
     plan.target_not_found = target_id == 0;
   }
+  plan.target_id = target_id;
   if (target_id > 0 && !info.plans_target) {
     // Contacts on the target only; every other object stays an obstacle.
     core::RestrictContact(plan.scene, plan.instances->labels == target_id, options.min_depth_m);

@@ -173,6 +173,7 @@ struct Plan {
   std::optional<TargetChoice> target;  ///< strategies that plan targets
   std::optional<GqcnnStats> gqcnn;     ///< strategy=gqcnn
   bool target_not_found = false;       ///< target_px was on no instance
+  int target_id = 0;  ///< the named target: options.target_id or the instance under target_px
   PlanTimings timing;
 };
 

@@ -261,7 +261,7 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
       {"contact_region",
        {{"segmask", !in.plan.region_of_interest.empty()},
         {"min_depth_m", in.plan.min_depth_m},
-        {"target", in.plan.target_id > 0 ? json(in.plan.target_id) : json()}}},
+        {"target", plan.target_id > 0 ? json(plan.target_id) : json()}}},
       {"segmentation", plan.instances ? json{{"source", plan.instances->source},
                                              {"instances", plan.instances->count}}
                                       : json()},
@@ -306,6 +306,13 @@ http::Response Grasps(const http::Request& request, const config::ServiceConfig&
   auto planned = engine::PlanGrasps(in.upload.depth, in.upload.camera, in.plan, models);
   if (!planned.ok()) return ErrorToResponse(planned.error());
   const engine::Plan& plan = planned.value();
+  if (plan.target_not_found) {
+    return ErrorToResponse(core::MakeError(core::ErrorCode::kUnprocessable,
+                                           "target_px (" + std::to_string(in.plan.target_px->x) +
+                                               ", " + std::to_string(in.plan.target_px->y) +
+                                               ") is on no object of the segmentation",
+                                           "target_px"));
+  }
   if (png) {
     std::vector<core::Grasp> grasps;
     for (const auto& g : plan.grasps) grasps.push_back(g.grasp);

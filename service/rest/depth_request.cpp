@@ -319,6 +319,27 @@ core::Result<std::vector<double>> ParseOpeningFractions(const std::string& text)
   return out;
 }
 
+// "U,V": a pixel of the image (column, row), integers.
+core::Result<cv::Point> ParseTargetPixel(const std::string& text, cv::Size image) {
+  const auto bad = [&] {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "target_px must be the pixel 'U,V' (column, row; integers) of an object in "
+                     "the " +
+                         std::to_string(image.width) + "x" + std::to_string(image.height) +
+                         " image, got '" + text + "'",
+                     "target_px");
+  };
+  const std::size_t comma = text.find(',');
+  if (comma == std::string::npos) return bad();
+  auto u = ParseNumber("target_px", text.substr(0, comma), 0, image.width - 1);
+  auto v = ParseNumber("target_px", text.substr(comma + 1), 0, image.height - 1);
+  if (!u.ok() || !v.ok() || u.value() != std::floor(u.value()) ||
+      v.value() != std::floor(v.value())) {
+    return bad();
+  }
+  return cv::Point(static_cast<int>(u.value()), static_cast<int>(v.value()));
+}
+
 }  // namespace
 
 // "strategy": a registered name the loaded models serve (default: the last one they serve).
@@ -356,7 +377,8 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   for (const auto& [key, text] : fields.values) {
     if (key == "format" || key == "strategy" || key == "draw" || key == "overlay" ||
         key == "mean_stiffness" || key == "instances" || key == "segmentation" || key == "target" ||
-        key == "target_policy" || key == "opening_fractions" || IsUploadField(key)) {
+        key == "target_px" || key == "target_policy" || key == "opening_fractions" ||
+        IsUploadField(key)) {
       continue;
     }
     const auto option = NumericOptions().find(key);
@@ -455,6 +477,15 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
           "target");
     }
     plan.target_id = static_cast<int>(id.value());
+  }
+  if (const auto px = fields.values.find("target_px"); px != fields.values.end()) {
+    if (plan.target_id > 0) {
+      return MakeError(ErrorCode::kInvalidArgument, "give either target or target_px, not both",
+                       "target_px");
+    }
+    auto point = ParseTargetPixel(px->second, out.upload.depth.depth_m.size());
+    if (!point.ok()) return point.error();
+    plan.target_px = point.value();
   }
   if (fields.labels_bytes) {
     auto labels = DecodeLabels(*fields.labels_bytes, config, out.upload.depth);

@@ -46,8 +46,8 @@ Prepared Prepare(const core::DepthImage& depth, const core::Camera& camera) {
   Prepared p{std::move(scene).value(), camera, {}};
   auto instances = InstancesForPlan({}, p.scene, camera, &ShippedModel());
   if (!instances.ok()) throw std::runtime_error(instances.error().message);
-  p.objects = {instances.value().labels, instances.value().scores,
-               instances.value().deformability, instances.value().foreground};
+  p.objects = {instances.value().labels, instances.value().scores, instances.value().deformability,
+               instances.value().foreground};
   return p;
 }
 
@@ -60,10 +60,9 @@ const Prepared& Clutter() {
 }
 
 const Prepared& Primesense() {
-  static const Prepared p =
-      Prepare(core::DepthImage{testing::LoadNpyFloat32(
-                  testing::TestData("gqcnn/primesense/single_depth_0.npy"))},
-              core::Camera{525.0, 525.0, 319.5, 239.5, 640, 480});
+  static const Prepared p = Prepare(core::DepthImage{testing::LoadNpyFloat32(
+                                        testing::TestData("gqcnn/primesense/single_depth_0.npy"))},
+                                    core::Camera{525.0, 525.0, 319.5, 239.5, 640, 480});
   return p;
 }
 
@@ -72,8 +71,8 @@ void Plan(benchmark::State& state, const Prepared& p, core::TargetPolicy policy)
   params.policy = policy;
   std::size_t grasps = 0;
   for (auto _ : state) {
-    const auto result = core::DetectGraspsDeformability(p.scene, p.camera, p.objects,
-                                                        core::Gripper{}, params);
+    const auto result =
+        core::DetectGraspsDeformability(p.scene, p.camera, p.objects, core::Gripper{}, params);
     grasps = result.grasps.size();
     benchmark::DoNotOptimize(grasps);
   }

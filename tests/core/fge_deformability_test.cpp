@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <stdexcept>
 
@@ -435,6 +436,45 @@ TEST(DetectGraspsDeformability, AMaskCoveringPartOfItsObjectGrowsIntoTheUnlabell
   EXPECT_EQ(grown.target_id, 1);
   ASSERT_FALSE(grown.grasps.empty());
   EXPECT_EQ(BoxAtCenter(s, grown.grasps.front().grasp), 1);
+}
+
+// A segmentation that merged a box with the taller sponge beside it (one instance, and a map
+// that calls both rigid): named by id, the instance's top is the sponge's and the grasp lands
+// there; named by a click on the box, only the box is grasped and the sponge is an obstacle.
+TEST(DetectGraspsDeformability, AClickCutsAMergedTargetToTheClickedObject) {
+  SceneSpec spec;  // box 1 (40 mm) and sponge 2 (70 mm) touching along x; 40 mm across y
+  spec.boxes = {Box{-0.06, 0.02, 0.030, 0.040, 0.040, 0.0, 1},
+                Box{-0.03, 0.02, 0.030, 0.040, 0.070, 0.0, 2}};
+  const Prepared s = Make(spec, {{1, 1}, {2, 1}}, {{1, 0.0f}, {2, 0.0f}}, {0.9f});
+  DeformabilityParams params;
+  params.target_id = 1;
+  const auto by_id =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  ASSERT_FALSE(by_id.grasps.empty());
+  EXPECT_EQ(BoxAtCenter(s, by_id.grasps.front().grasp), 2);
+
+  // The click: the box's centre pixel.
+  cv::Point click(-1, -1);
+  double best = -1;
+  cv::Mat1f distance;
+  cv::distanceTransform(s.synth.object_id == 1, distance, cv::DIST_L2, 3);
+  cv::minMaxLoc(distance, nullptr, &best, nullptr, &click);
+  params.target_px = click;
+  const auto by_click =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(by_click.target_id, 1);
+  ASSERT_FALSE(by_click.grasps.empty());
+  for (const DeformabilityGrasp& dg : by_click.grasps) {
+    EXPECT_EQ(BoxAtCenter(s, dg.grasp), 1);
+    EXPECT_EQ(BoxesBetweenFingers(s, dg.grasp), (std::set<int>{1}));
+    EXPECT_TRUE(BoxesUnderFingers(s, dg.grasp).empty());
+  }
+
+  // A click off the instance names nothing to cut: the whole instance, as by id.
+  params.target_px = cv::Point(5, 5);
+  const auto off = DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  ASSERT_FALSE(off.grasps.empty());
+  EXPECT_EQ(BoxAtCenter(s, off.grasps.front().grasp), 2);
 }
 
 TEST(DetectGraspsDeformability, BadInputThrows) {

@@ -189,11 +189,14 @@ TEST(PlanGrasps, GivenLabelsNameTheTargetByIdOrByPixel) {
   plan = MustPlan(options);
   ASSERT_FALSE(plan.grasps.empty());
   EXPECT_FALSE(plan.target_not_found);
+  EXPECT_EQ(plan.target_id, Scene().labels(options.target_px->y, options.target_px->x));
+  EXPECT_GT(plan.target_id, 0);
   for (const PlannedGrasp& g : plan.grasps) EXPECT_EQ(BoxAt(g.grasp), 1);
   // A click on the table: no target, no grasps.
   options.target_px = cv::Point(5, 5);
   plan = MustPlan(options);
   EXPECT_TRUE(plan.target_not_found);
+  EXPECT_EQ(plan.target_id, 0);
   EXPECT_TRUE(plan.grasps.empty());
 }
 

@@ -359,6 +359,32 @@ TEST_F(SegmentationApiTest, TargetRestrictsGraspsToThatBox) {
   }
 }
 
+TEST_F(SegmentationApiTest, TargetPxNamesTheObjectUnderThePixel) {
+  const Frame& f = Boxes();
+  const cv::Mat1w labels = Labels(f);
+  for (int target = 1; target <= 3; ++target) {
+    const cv::Moments m = cv::moments(labels == target, true);
+    ASSERT_GT(m.m00, 0);
+    const int u = static_cast<int>(m.m10 / m.m00), v = static_cast<int>(m.m01 / m.m00);
+    ASSERT_EQ(labels(v, u), target);
+    const json body = ParseOk(server_->Send(MultipartRequest(
+        "/v1/grasps", Upload(f, {{"target_px", std::to_string(u) + "," + std::to_string(v), ""},
+                                 {"top_k", "10", ""}}))));
+    EXPECT_EQ(body["contact_region"]["target"], target);
+    ASSERT_FALSE(body["grasps"].empty()) << "target " << target;
+    for (const json& g : body["grasps"]) EXPECT_EQ(g["instance_id"], target);
+  }
+  ExpectError(server_->Send(MultipartRequest("/v1/grasps", Upload(f, {{"target_px", "5,5", ""}}))),
+              422, "target_px");  // the table
+  for (const char* bad : {"5", "5,", "1.5,3", "-1,3", "640,3", "3,480", "a,b"}) {
+    ExpectError(server_->Send(MultipartRequest("/v1/grasps", Upload(f, {{"target_px", bad, ""}}))),
+                400, "target_px");
+  }
+  ExpectError(server_->Send(MultipartRequest(
+                  "/v1/grasps", Upload(f, {{"target_px", "5,5", ""}, {"target", "1", ""}}))),
+              400, "target_px");
+}
+
 TEST_F(SegmentationApiTest, TargetOnUploadedLabelsUsesThemAsGiven) {
   const Frame& f = Boxes();
   const auto labels_png = Segment(Upload(f, {{"format", "labels", ""}})).body;
