@@ -13,6 +13,12 @@ namespace softgrasp::core {
 namespace {
 
 using fge_detail::AngleOf;
+using fge_detail::GripperPx;
+using fge_detail::kMaxContactChecksPerMap;
+using fge_detail::Near;
+using fge_detail::SimilarAngle;
+using fge_detail::Slice;
+using fge_detail::StableContacts;
 
 void CheckParams(const Camera& camera, const Gripper& gripper, const StiffnessFgeParams& params) {
   fge_detail::CheckInputs(camera, gripper, params.fge);
@@ -24,13 +30,6 @@ void CheckParams(const Camera& camera, const Gripper& gripper, const StiffnessFg
         "max_slice_batches >= 0, key_step in [0, 1]");
   }
 }
-using fge_detail::GripperPx;
-using fge_detail::Near;
-using fge_detail::SimilarAngle;
-using fge_detail::Slice;
-using fge_detail::StableContacts;
-
-using fge_detail::kMaxContactChecksPerMap;
 
 struct Candidate {
   double u_px = 0;

@@ -32,8 +32,8 @@ cv::Mat1f MakeModelInput(const core::Scene& scene, cv::Size size) {
 void SetTorchThreads(int n) { torch::set_num_threads(std::max(1, n)); }
 
 void KeepFreedMemoryForReuse() {
-  // Setting either value also switches off glibc's dynamic mmap threshold (raised by frees of
-  // mapped blocks, not reliably). 32 MiB is the largest mmap threshold glibc accepts on 64-bit.
+  // Setting either value also switches off glibc's dynamic mmap threshold. 32 MiB is the
+  // largest mmap threshold glibc accepts on 64-bit.
   constexpr int kMmapThresholdBytes = 32 * 1024 * 1024;
   constexpr int kTrimThresholdBytes = 1024 * 1024 * 1024;
   mallopt(M_MMAP_THRESHOLD, kMmapThresholdBytes);
