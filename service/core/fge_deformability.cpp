@@ -6,11 +6,13 @@
 #include <limits>
 #include <map>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "service/core/fge_geometry.h"
 #include "service/core/fge_stiffness.h"
 #include "service/core/finger_clearance.h"
 
@@ -322,13 +324,16 @@ namespace {
 /// that gives a grasp kept; with `pressed`, grasps with a soft neighbour between the fingers are
 /// dropped. Returns 0 when no opening gave a grasp, 1 when the grasps replaced `result`'s (the
 /// first found, or less deformable than *best_deformability by more than the tie tolerance), -1
-/// when a grasp was found but not kept.
+/// when a grasp was found but not kept. `free_space` (may be null): made for view.scene's heights.
 int PlanOpenings(const Scene& scene, const TargetView& view, bool pressed, const Camera& camera,
                  const cv::Mat1f& stiffness, const Gripper& gripper, const StiffnessFgeParams& sp,
                  const DeformabilityParams& params, int id, const cv::Mat1w& labels,
-                 double* best_deformability, DeformabilityResult* result) {
+                 fge_detail::FreeSpace* free_space, double* best_deformability,
+                 DeformabilityResult* result) {
   const FingerClearance clearance(view.scene, camera);
-  const fge_detail::SliceSearch search = StiffnessSliceSearch(view.scene, camera, gripper, sp);
+  const fge_detail::SliceSearch search =
+      free_space ? StiffnessSliceSearch(view.scene, camera, gripper, sp, *free_space)
+                 : StiffnessSliceSearch(view.scene, camera, gripper, sp);
   for (std::size_t k = 0; k < params.opening_fractions.size(); ++k) {
     const double fraction = params.opening_fractions[k];
     Gripper opened = gripper;
@@ -397,6 +402,9 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   // the whole of it (the gentlest closing region still ranks first): the user asked for that
   // object, and the rule would otherwise leave a bottle whose cap is out of reach, or a carton
   // whose soft-looking lid the rule cuts away, with no grasp at all.
+  // The heights as seen are the same for every target: what the slice search finds on them
+  // before it looks at a target is found once (views that press soft neighbours change them).
+  std::optional<fge_detail::FreeSpace> free_space;
   const bool named = params.target_id > 0;
   const double passes[] = {0.0, params.min_part_contrast,
                            named ? std::numeric_limits<double>::infinity() : 0.0};
@@ -430,8 +438,13 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
       for (const bool press : {false, true}) {
         const TargetView view = ViewForTarget(scene, objects, id, contact, params, press);
         if (cv::countNonZero(contact) == 0 || (press && !view.pressable)) break;
+        if (!press && !free_space) {
+          free_space.emplace(scene.height_m, fge_detail::PxPerMetre(scene.floor, camera, 0),
+                             sp.fge);
+        }
         const int found = PlanOpenings(scene, view, press, camera, stiffness, gripper, sp, params,
-                                       id, objects.labels, &best_deformability, &result);
+                                       id, objects.labels, press ? nullptr : &*free_space,
+                                       &best_deformability, &result);
         if (found != 0) break;  // a grasp (kept or not better than the best): no pressing needed
       }
     }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <utility>
 
@@ -587,7 +588,7 @@ FastFge::FastFge(const Scene& scene, const Camera& camera, const Gripper& grippe
 
 FastFge::~FastFge() = default;
 
-FastFge::Canvas FastFge::MakeCanvas(double angle_rad, bool whole) {
+FastFge::Canvas FastFge::MakeCanvas(double angle_rad, bool whole, Workspace& ws) const {
   const double c = std::cos(angle_rad);
   const double s = std::sin(angle_rad);
   const double w = crop_.width;
@@ -619,7 +620,7 @@ FastFge::Canvas FastFge::MakeCanvas(double angle_rad, bool whole) {
   const cv::Point2d origin(region.x - q.x, region.y - q.y);  // canvas pixel (0, 0) minus q
   canvas.crop_from_canvas(0, 2) = p.x + c * origin.x - s * origin.y;
   canvas.crop_from_canvas(1, 2) = p.y + s * origin.x + c * origin.y;
-  canvas.levels = View(ws_->levels, region.size());
+  canvas.levels = View(ws.levels, region.size());
   cv::warpAffine(levels_, canvas.levels, canvas.canvas_from_crop, region.size(), cv::INTER_NEAREST,
                  cv::BORDER_CONSTANT, 0);
   for (cv::Rect& r : objects) r -= region.tl();
@@ -849,7 +850,7 @@ std::vector<std::vector<LocalMaximum>> FastFge::LocalMaxima(double angle_rad) {
   std::vector<std::vector<LocalMaximum>> result(slices_.size());
   if (crop_.empty()) return result;
   const bool turn = last_canvas_ && std::abs(angle_rad - last_angle_rad_ - kHalfPi) < 1e-9;
-  const Canvas canvas = turn ? TurnedCanvas(*last_canvas_) : MakeCanvas(angle_rad, false);
+  const Canvas canvas = turn ? TurnedCanvas(*last_canvas_) : MakeCanvas(angle_rad, false, *ws_);
   if (turn) {
     last_canvas_.reset();
   } else {
@@ -981,13 +982,38 @@ cv::Mat2f FastFge::PoolSums(const cv::Mat1f& values, const cv::Mat1b& mask) cons
 
 std::vector<std::vector<FastFge::RegionCandidate>> FastFge::Candidates(
     double angle_rad, const std::vector<cv::Mat2f>& pooled, int grid_step) {
+  last_canvas_.reset();  // MakeCanvas reuses the buffer that a pending turn would read
+  return CandidatesWith(angle_rad, pooled, grid_step, *ws_);
+}
+
+std::vector<std::vector<std::vector<FastFge::RegionCandidate>>> FastFge::CandidatesAtAngles(
+    const std::vector<double>& angles_rad, const std::vector<cv::Mat2f>& pooled, int grid_step) {
+  last_canvas_.reset();
+  std::vector<std::vector<std::vector<RegionCandidate>>> result(angles_rad.size());
+  const int n = static_cast<int>(angles_rad.size());
+  const int stripes = std::max(1, std::min(n, cv::getNumThreads()));
+  // One workspace per stripe: each angle only writes its own buffers and result entry.
+  cv::parallel_for_(
+      cv::Range(0, n),
+      [&](const cv::Range& range) {
+        Workspace own;
+        for (int i = range.start; i < range.end; ++i) {
+          const auto k = static_cast<std::size_t>(i);
+          result[k] = CandidatesWith(angles_rad[k], pooled, grid_step, own);
+        }
+      },
+      stripes);
+  return result;
+}
+
+std::vector<std::vector<FastFge::RegionCandidate>> FastFge::CandidatesWith(
+    double angle_rad, const std::vector<cv::Mat2f>& pooled, int grid_step, Workspace& ws) const {
   std::vector<std::vector<RegionCandidate>> result(slices_.size());
   if (crop_.empty()) return result;
   CV_Assert(grid_step >= 1);
-  last_canvas_.reset();  // MakeCanvas reuses the buffer that a pending turn would read
-  const Canvas canvas = MakeCanvas(angle_rad, false);
+  const Canvas canvas = MakeCanvas(angle_rad, false, ws);
   std::size_t next_slot = 0;
-  std::vector<IntegralCache> caches = GroupCaches(canvas, work_, *ws_, next_slot);
+  std::vector<IntegralCache> caches = GroupCaches(canvas, work_, ws, next_slot);
   const LevelLimits limits{max_level_, max_seam_level_, contact_is_obstacle_};
   std::vector<CanvasCandidate> found;
   for (std::size_t i = 0; i < slices_.size(); ++i) {
@@ -1005,7 +1031,7 @@ std::vector<std::vector<FastFge::RegionCandidate>> FastFge::Candidates(
       IntegralCache& cache = CacheHolding(caches, cluster);
       const SliceIntegrals in = IntegralsFor(w, cache, cache.region().tl(), limits);
       CandidatesInCluster(in, w, cluster, regions.rois, crop_map, canvas.crop_from_canvas,
-                          grid_step, *ws_, found);
+                          grid_step, ws, found);
     }
     result[i].reserve(found.size());
     for (const CanvasCandidate& c : found) {
@@ -1042,7 +1068,7 @@ FgeMaps FastFge::Maps(double angle_rad, std::size_t slice_pos) {
   FgeMaps maps{cv::Mat1f::zeros(image_size_), cv::Mat1f::zeros(image_size_),
                cv::Mat1f::zeros(image_size_)};
   if (crop_.empty() || slice_pos >= slices_.size()) return maps;
-  const Canvas canvas = MakeCanvas(angle_rad, true);
+  const Canvas canvas = MakeCanvas(angle_rad, true, *ws_);
   const cv::Rect whole(cv::Point(0, 0), canvas.levels.size());
   std::size_t next_slot = 0;
   IntegralCache cache(canvas, whole, *ws_, next_slot);

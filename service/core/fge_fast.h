@@ -21,7 +21,8 @@ struct LocalMaximum {
 /// Everything that depends on the scene and the slices but not on the angle is prepared once in
 /// the constructor; each angle then costs one rotation of a 16-bit level image plus, per slice, a
 /// few integral images, box sums around each object and a Gaussian blur of the candidate map.
-/// Buffers are reused across angles and slices. Not thread-safe; use one instance per thread.
+/// Buffers are reused across angles and slices. Not thread-safe; use one instance per thread
+/// (CandidatesAtAngles spreads its own work over threads).
 class FastFge {
  public:
   /// `graspable` (image size, 255 = may be a contact surface) restricts I_t; every surface is
@@ -64,6 +65,12 @@ class FastFge {
   std::vector<std::vector<RegionCandidate>> Candidates(double angle_rad,
                                                        const std::vector<cv::Mat2f>& pooled,
                                                        int grid_step = 1);
+  /// Candidates at each angle, result[k] for angles_rad[k], the angles spread over OpenCV's
+  /// threads (cv::parallel_for_, one workspace per thread): the same as calling Candidates for
+  /// each angle in turn.
+  std::vector<std::vector<std::vector<RegionCandidate>>> CandidatesAtAngles(
+      const std::vector<double>& angles_rad, const std::vector<cv::Mat2f>& pooled,
+      int grid_step = 1);
 
   /// Per-slice sizes at work resolution and indices into the sorted level list.
   struct SliceWork {
@@ -87,7 +94,10 @@ class FastFge {
  private:
   /// The rotated level words; `whole`: the whole rotated crop, else only the objects'
   /// neighbourhood (what LocalMaxima reads).
-  Canvas MakeCanvas(double angle_rad, bool whole);
+  Canvas MakeCanvas(double angle_rad, bool whole, Workspace& ws) const;
+  std::vector<std::vector<RegionCandidate>> CandidatesWith(double angle_rad,
+                                                           const std::vector<cv::Mat2f>& pooled,
+                                                           int grid_step, Workspace& ws) const;
   Canvas TurnedCanvas(const Canvas& canvas) const;
   cv::Point2d ToImage(const Canvas& canvas, cv::Point2d canvas_px) const;
 

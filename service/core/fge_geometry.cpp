@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <opencv2/imgproc.hpp>
@@ -102,14 +103,8 @@ cv::Mat1b FreeObjectPixels(const cv::Mat1f& height_m, double level_m) {
   return free_pixels;
 }
 
-// Pixels that are part of a free region at some level from lowest_m up to top_m (in steps): an
-// object leaning on a bin wall, or a pile that reaches the walls, is joined to them low down but
-// stands free higher up, and its surface there may be grasped. Levels stop at the objects' top so
-// that robot parts reaching in from the border, which only separate from it near their own (higher)
-// tops, stay obstacles. A region free at one level stays free at every higher level (its part above
-// that level touches the border even less), so each block records the lowest level at which it is
-// free, and a pixel is free where it rises above that.
-cv::Mat1b FreeAtSomeLevel(const cv::Mat1f& height_m, double lowest_m, double top_m, double step_m) {
+// Maxima of height_m over the blocks FreeObjectPixels and FreeAtSomeLevel label.
+cv::Mat1f BlockMax(const cv::Mat1f& height_m) {
   const int step = std::max(1, std::min(height_m.rows, height_m.cols) / kRegionSampleRows);
   const cv::Size grid((height_m.cols + step - 1) / step, (height_m.rows + step - 1) / step);
   cv::Mat1f block_max(grid, -std::numeric_limits<float>::infinity());
@@ -118,6 +113,21 @@ cv::Mat1b FreeAtSomeLevel(const cv::Mat1f& height_m, double lowest_m, double top
     float* b = block_max.ptr<float>(v / step);
     for (int u = 0; u < height_m.cols; ++u) b[u / step] = std::max(b[u / step], h[u]);
   }
+  return block_max;
+}
+
+// Pixels that are part of a free region at some level from lowest_m up to top_m (in steps): an
+// object leaning on a bin wall, or a pile that reaches the walls, is joined to them low down but
+// stands free higher up, and its surface there may be grasped. Levels stop at the objects' top so
+// that robot parts reaching in from the border, which only separate from it near their own (higher)
+// tops, stay obstacles. A region free at one level stays free at every higher level (its part above
+// that level touches the border even less), so each block records the lowest level at which it is
+// free, and a pixel is free where it rises above that.
+// `block_max`: BlockMax(height_m).
+cv::Mat1b FreeAtSomeLevel(const cv::Mat1f& height_m, const cv::Mat1f& block_max, double lowest_m,
+                          double top_m, double step_m) {
+  const int step = std::max(1, std::min(height_m.rows, height_m.cols) / kRegionSampleRows);
+  const cv::Size grid = block_max.size();
   cv::Mat1f free_from(grid, std::numeric_limits<float>::infinity());
   cv::Mat1i labels, stats;
   cv::Mat1d centroids;
@@ -203,6 +213,16 @@ cv::Mat1b FreeSmoothPieces(const cv::Mat1f& height_m, double level_m, double px_
   return free_pixels;
 }
 
+// The n of "the n-th highest pixel" and the least area of a free piece.
+int MinAreaPx(const FgeParams& params) {
+  return std::max(1, static_cast<int>(std::ceil(params.min_object_area_px)));
+}
+
+// Nothing lower than this can start a slice whose fingertips clear the floor.
+double LowestLevelM(const FgeParams& params) {
+  return params.floor_clearance_m + params.grip_depth_m;
+}
+
 struct FreeObjects {
   double top_m = 0;  // n-th highest free-object pixel at the lowest level with free objects
   cv::Mat1b pixels;  // every pixel free at some level (FreeAtSomeLevel)
@@ -211,21 +231,27 @@ struct FreeObjects {
 // The top comes from the free objects at the lowest level (from lowest_m up in steps) where they
 // cover n pixels: robot parts reaching into the image only separate near their tops, so objects
 // on the floor set it. Graspable are the pixels free at any level. Only pixels in `allowed` (if
-// not empty) count.
-std::optional<FreeObjects> FindFreeObjects(const cv::Mat1f& height_m, const cv::Mat1b& allowed,
-                                           double lowest_m, double step_m, int n) {
-  double max_height = 0;
-  cv::minMaxLoc(height_m, nullptr, &max_height);
-  for (double level = lowest_m; level < max_height; level += step_m) {
-    cv::Mat1b pixels = FreeObjectPixels(height_m, level);
-    if (!allowed.empty()) pixels &= allowed;
-    if (auto top = NthHighestHeight(height_m, pixels, n)) {
-      cv::Mat1b graspable = FreeAtSomeLevel(height_m, level, *top, step_m);
+// not empty; none outside `roi`) count.
+std::optional<FreeObjects> FindFreeObjects(FreeSpace& free_space, const cv::Mat1b& allowed,
+                                           const cv::Rect& roi, double step_m, int n) {
+  const cv::Mat1f& height_m = free_space.height_m();
+  if (roi.empty()) return std::nullopt;  // nothing allowed
+  double level = 0;
+  for (int k = 0;; ++k) {
+    const cv::Mat1b* free_objects = free_space.FreeObjectsAtLevel(k, &level);
+    if (free_objects == nullptr) return std::nullopt;
+    cv::Mat1b pixels = (*free_objects)(roi);
+    if (!allowed.empty()) {
+      cv::Mat1b both;
+      cv::bitwise_and(pixels, allowed(roi), both);
+      pixels = both;
+    }
+    if (auto top = NthHighestHeight(height_m(roi), pixels, n)) {
+      cv::Mat1b graspable = FreeAtSomeLevel(height_m, free_space.block_max(), level, *top, step_m);
       if (!allowed.empty()) graspable &= allowed;
       return FreeObjects{*top, graspable};
     }
   }
-  return std::nullopt;
 }
 
 }  // namespace
@@ -292,26 +318,63 @@ Slice SliceAt(double contact_height_m, const Gripper& gripper, const FgeParams& 
   return {index, contact_height_m, tip_height_m, tip_height_m + gripper.finger_length_m};
 }
 
+FreeSpace::FreeSpace(const cv::Mat1f& height_m, double floor_px_per_m, const FgeParams& params)
+    : height_m_(height_m),
+      min_area_px_(MinAreaPx(params)),
+      lowest_m_(LowestLevelM(params)),
+      step_m_(params.height_step_m) {
+  if (height_m.empty()) return;
+  cv::minMaxLoc(height_m, nullptr, &max_height_m_);
+  smooth_pieces_ = FreeSmoothPieces(height_m, lowest_m_, floor_px_per_m, min_area_px_);
+  block_max_ = BlockMax(height_m);
+}
+
+bool FreeSpace::Serves(const FgeParams& params) const {
+  return MinAreaPx(params) == min_area_px_ && LowestLevelM(params) == lowest_m_ &&
+         params.height_step_m == step_m_;
+}
+
+const cv::Mat1b* FreeSpace::FreeObjectsAtLevel(int k, double* level_m) {
+  while (static_cast<int>(levels_m_.size()) <= k) {
+    const double level = levels_m_.empty() ? lowest_m_ : levels_m_.back() + step_m_;
+    if (!(level < max_height_m_)) return nullptr;
+    levels_m_.push_back(level);
+    free_objects_.push_back(FreeObjectPixels(height_m_, level));
+  }
+  *level_m = levels_m_[static_cast<std::size_t>(k)];
+  return &free_objects_[static_cast<std::size_t>(k)];
+}
+
 SliceSearch SearchSlices(const cv::Mat1f& height_m, const cv::Mat1b& contact_allowed,
                          double floor_px_per_m, const Gripper& gripper, const FgeParams& params) {
-  const int n = std::max(1, static_cast<int>(std::ceil(params.min_object_area_px)));
-  // Nothing lower than this can start a slice whose fingertips clear the floor.
-  const double lowest_m = params.floor_clearance_m + params.grip_depth_m;
+  FreeSpace free_space(height_m, floor_px_per_m, params);
+  return SearchSlices(free_space, contact_allowed, gripper, params);
+}
+
+SliceSearch SearchSlices(FreeSpace& free_space, const cv::Mat1b& contact_allowed,
+                         const Gripper& gripper, const FgeParams& params) {
+  Require(free_space.Serves(params), "SearchSlices: the free space was made with other params");
+  const cv::Mat1f& height_m = free_space.height_m();
+  const int n = MinAreaPx(params);
+  const double lowest_m = LowestLevelM(params);
   SliceSearch search;
+  // Every pixel that can count lies in the contact mask's bounding box.
+  const cv::Rect roi = contact_allowed.empty() ? cv::Rect(cv::Point(0, 0), height_m.size())
+                                               : cv::boundingRect(contact_allowed);
   std::optional<double> top;
-  cv::Mat1b pieces = FreeSmoothPieces(height_m, lowest_m, floor_px_per_m, n);
-  if (!contact_allowed.empty()) pieces &= contact_allowed;
-  const auto free = FindFreeObjects(height_m, contact_allowed, lowest_m, params.height_step_m, n);
+  cv::Mat1b pieces = contact_allowed.empty() ? free_space.smooth_pieces().clone()
+                                             : free_space.smooth_pieces() & contact_allowed;
+  const auto free = FindFreeObjects(free_space, contact_allowed, roi, params.height_step_m, n);
   if (free) {
     search.graspable = free->pixels | pieces;
-    top = std::max(free->top_m, NthHighestHeight(height_m, pieces, n).value_or(0.0));
+    top = std::max(free->top_m, NthHighestHeight(height_m(roi), pieces(roi), n).value_or(0.0));
   } else if (cv::countNonZero(pieces) >= n) {
     search.graspable = pieces;
-    top = NthHighestHeight(height_m, pieces, n);
+    top = NthHighestHeight(height_m(roi), pieces(roi), n);
   } else {  // every object touches the border at every level: let them all count
     search.graspable =
         contact_allowed.empty() ? cv::Mat1b(height_m.size(), 255) : contact_allowed.clone();
-    top = NthHighestHeight(height_m, search.graspable, n);
+    top = NthHighestHeight(height_m(roi), search.graspable(roi), n);
   }
   if (!top) return search;
   const double h0 = *top - kTopSliceMarginM;
@@ -439,18 +502,32 @@ bool StableContacts(const cv::Mat1f& height_m, double u_px, double v_px, double 
   const int none = std::numeric_limits<int>::min();
   std::vector<int> right(static_cast<std::size_t>(2 * half_width + 1), none);
   std::vector<int> left(right.size(), none);  // stores -a so both sides use "max"
+  const float* const heights = height_m.ptr<float>(0);
+  const std::size_t row_step = height_m.step1();
+  const auto cols = static_cast<double>(height_m.cols), rows = static_cast<double>(height_m.rows);
+  // Whether the surface at (u, v) + 0.5 (truncation rounds; inside the image the coordinates
+  // are >= -0.5) is above the tips.
+  const auto above_tips = [&](double u, double v) {
+    if (u < 0 || v < 0 || u >= cols || v >= rows) return false;
+    return heights[static_cast<std::size_t>(v) * row_step + static_cast<std::size_t>(u)] > tip;
+  };
   for (int b = -half_width; b <= half_width; ++b) {
-    auto& r = right[static_cast<std::size_t>(b + half_width)];
-    auto& l = left[static_cast<std::size_t>(b + half_width)];
-    // Walk the line a = -half_len .. half_len; +0.5 and truncation round (coordinates >= -0.5).
-    double u = u_px - half_len * cs - b * sn + 0.5;
-    double v = v_px - half_len * sn + b * cs + 0.5;
-    for (int a = -half_len; a <= half_len; ++a, u += cs, v += sn) {
-      if (u < 0 || v < 0 || u >= height_m.cols || v >= height_m.rows) continue;
-      if (!(height_m(static_cast<int>(v), static_cast<int>(u)) > tip)) continue;
-      r = a;  // a increases: the last hit is the outermost on the +a side
-      if (l == none) l = -a;
+    // Each finger meets the line's outermost surface pixel on its side: walk in from each end
+    // and stop at the first hit (the gap between finger and object, not the whole line).
+    const double u_left = u_px - half_len * cs - b * sn + 0.5;
+    const double v_left = v_px - half_len * sn + b * cs + 0.5;
+    int a_right = half_len;
+    double u = u_left + 2 * half_len * cs, v = v_left + 2 * half_len * sn;
+    for (; a_right >= -half_len && !above_tips(u, v); --a_right, u -= cs, v -= sn) {
     }
+    if (a_right < -half_len) continue;  // nothing on this line
+    int a_left = -half_len;
+    u = u_left;
+    v = v_left;
+    for (; !above_tips(u, v) && a_left < a_right; ++a_left, u += cs, v += sn) {
+    }
+    right[static_cast<std::size_t>(b + half_width)] = a_right;
+    left[static_cast<std::size_t>(b + half_width)] = -a_left;  // -a so both sides use "max"
   }
   const int tolerance_px =
       std::max(1, static_cast<int>(std::floor(kContactFaceToleranceM * px_per_m)));

@@ -102,6 +102,41 @@ struct SliceSearch {
 /// `floor_px_per_m`: PxPerMetre(floor, camera, 0), the image scale on the floor.
 SliceSearch SearchSlices(const cv::Mat1f& height_m, const cv::Mat1b& contact_allowed,
                          double floor_px_per_m, const Gripper& gripper, const FgeParams& params);
+
+/// What SearchSlices finds on a height image before it looks at the contact mask: the free smooth
+/// pieces and the free-object pixels at each level (full-image passes and connected components).
+/// A planner that searches the same heights for several contact masks (the deformability
+/// planner's targets) makes it once. Levels are computed when first asked for, so an instance
+/// is not thread-safe; it refers to `height_m`, which must outlive it unchanged.
+class FreeSpace {
+ public:
+  /// `params`: min_object_area_px, floor_clearance_m, grip_depth_m and height_step_m are used.
+  FreeSpace(const cv::Mat1f& height_m, double floor_px_per_m, const FgeParams& params);
+
+  const cv::Mat1f& height_m() const { return height_m_; }
+  /// Whether SearchSlices with these params asks for the same pieces and levels.
+  bool Serves(const FgeParams& params) const;
+  /// FreeSmoothPieces at the lowest level (not yet limited to a contact mask).
+  const cv::Mat1b& smooth_pieces() const { return smooth_pieces_; }
+  /// Level k = lowest + k height steps (the same sum as SearchSlices' loop), while below the
+  /// highest pixel; nullptr past it.
+  const cv::Mat1b* FreeObjectsAtLevel(int k, double* level_m);
+  /// The image's block maxima for FreeAtSomeLevel.
+  const cv::Mat1f& block_max() const { return block_max_; }
+
+ private:
+  cv::Mat1f height_m_;
+  int min_area_px_ = 1;
+  double lowest_m_ = 0, step_m_ = 0, max_height_m_ = 0;
+  cv::Mat1b smooth_pieces_;
+  cv::Mat1f block_max_;
+  std::vector<double> levels_m_;         // levels_m_[k]: level k
+  std::vector<cv::Mat1b> free_objects_;  // free_objects_[k]: FreeObjectPixels at level k
+};
+
+/// SearchSlices on `free_space`'s heights (the same slices and graspable pixels).
+SliceSearch SearchSlices(FreeSpace& free_space, const cv::Mat1b& contact_allowed,
+                         const Gripper& gripper, const FgeParams& params);
 /// [first, last) ranges of num_height_steps slices each, in order: the planners search a batch
 /// and go on to the next, lower one only while they have fewer than top_k grasps.
 std::vector<std::pair<std::size_t, std::size_t>> SliceBatches(std::size_t num_slices,

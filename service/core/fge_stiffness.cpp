@@ -195,6 +195,18 @@ fge_detail::SliceSearch StiffnessSliceSearch(const Scene& scene, const Camera& c
                                   params.fge);
 }
 
+fge_detail::SliceSearch StiffnessSliceSearch(const Scene& scene, const Camera& camera,
+                                             const Gripper& gripper,
+                                             const StiffnessFgeParams& params,
+                                             fge_detail::FreeSpace& free_space) {
+  CheckParams(camera, gripper, params);
+  if (scene.height_m.empty()) return {};
+  if (free_space.height_m().data != scene.height_m.data) {
+    throw std::invalid_argument("StiffnessSliceSearch: the free space is for other heights");
+  }
+  return fge_detail::SearchSlices(free_space, scene.contact_allowed, gripper, params.fge);
+}
+
 std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,
                                          const cv::Mat1f& stiffness_map, const Gripper& gripper,
                                          const StiffnessFgeParams& params,
@@ -240,11 +252,13 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
       slices.push_back(std::move(sd));
     }
     const int grid_step = std::max(1, params.candidate_step_px / fast.scale());
+    std::vector<double> angles;
+    for (int ai = 0; ai < fp.num_angles; ++ai) angles.push_back(AngleOf(ai, fp.num_angles));
+    const auto found = fast.CandidatesAtAngles(angles, pooled, grid_step);
     for (int ai = 0; ai < fp.num_angles; ++ai) {
-      const auto found = fast.Candidates(AngleOf(ai, fp.num_angles), pooled, grid_step);
       for (std::size_t si = 0; si < batch.size(); ++si) {
-        AddCandidates(found[si], ai, static_cast<int>(first + si), static_cast<int>(b),
-                      params.centre_weight, params.key_step, all);
+        AddCandidates(found[static_cast<std::size_t>(ai)][si], ai, static_cast<int>(first + si),
+                      static_cast<int>(b), params.centre_weight, params.key_step, all);
       }
     }
     grasps = SelectGrasps(all, slices, scene, camera, gripper, fp);

@@ -48,6 +48,14 @@ fge_detail::SliceSearch StiffnessSliceSearch(const Scene& scene, const Camera& c
                                              const Gripper& gripper,
                                              const StiffnessFgeParams& params = {});
 
+/// As above, on a FreeSpace made for scene.height_m with PxPerMetre(scene.floor, camera, 0) and
+/// params.fge: a planner that searches the same heights for several contact masks (targets)
+/// shares the work that does not depend on the mask. The same result as without it.
+fge_detail::SliceSearch StiffnessSliceSearch(const Scene& scene, const Camera& camera,
+                                             const Gripper& gripper,
+                                             const StiffnessFgeParams& params,
+                                             fge_detail::FreeSpace& free_space);
+
 /// As above on a `search` that StiffnessSliceSearch made for the same scene, camera and params
 /// and a gripper that differs at most in its opening stroke (the same grasps as without it).
 std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camera,

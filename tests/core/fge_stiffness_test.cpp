@@ -283,5 +283,46 @@ TEST(DetectGraspsStiffness, ASharedSliceSearchGivesTheSameGraspsForEachOpening) 
   EXPECT_GT(found, 0u);
 }
 
+// The work a slice search does before it looks at the contact mask is shared by every target
+// of the deformability planner: the slices and graspable pixels are those of a search made per
+// mask, for each object, for a mask with no pixel and for no mask at all.
+TEST(DetectGraspsStiffness, ASharedFreeSpaceGivesTheSameSearchForEveryContactMask) {
+  const Prepared s = Make(testing::ClutterSceneSpec());
+  const StiffnessFgeParams params;
+  fge_detail::FreeSpace free_space(
+      s.scene.height_m, fge_detail::PxPerMetre(s.scene.floor, s.synth.camera, 0), params.fge);
+  double max_id = 0;
+  cv::minMaxLoc(s.synth.object_id, nullptr, &max_id);
+  ASSERT_GE(max_id, 3);
+  std::vector<cv::Mat1b> masks = {cv::Mat1b(), cv::Mat1b(s.scene.height_m.size(), 0)};
+  for (int id = 1; id <= static_cast<int>(max_id); ++id) masks.push_back(s.synth.object_id == id);
+  int searched = 0;
+  for (const cv::Mat1b& mask : masks) {
+    Scene view = s.scene;
+    view.contact_allowed = mask;
+    const auto own = StiffnessSliceSearch(view, s.synth.camera, Gripper{}, params);
+    const auto shared = StiffnessSliceSearch(view, s.synth.camera, Gripper{}, params, free_space);
+    ASSERT_EQ(own.slices.size(), shared.slices.size());
+    for (std::size_t k = 0; k < own.slices.size(); ++k) {
+      EXPECT_EQ(own.slices[k].contact_height_m, shared.slices[k].contact_height_m);
+    }
+    ASSERT_EQ(own.graspable.size(), shared.graspable.size());
+    if (!own.graspable.empty()) {
+      EXPECT_EQ(cv::countNonZero(own.graspable != shared.graspable), 0);
+    }
+    if (!own.slices.empty()) ++searched;
+  }
+  EXPECT_GE(searched, 4);  // every object and the whole scene have slices
+
+  StiffnessFgeParams other = params;  // other levels: the free space does not serve them
+  other.fge.height_step_m *= 2;
+  EXPECT_THROW(StiffnessSliceSearch(s.scene, s.synth.camera, Gripper{}, other, free_space),
+               std::invalid_argument);
+  Scene copy = s.scene;  // other heights
+  copy.height_m = s.scene.height_m.clone();
+  EXPECT_THROW(StiffnessSliceSearch(copy, s.synth.camera, Gripper{}, params, free_space),
+               std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace softgrasp::core
