@@ -7,7 +7,6 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "service/bridge/bridge.h"
@@ -173,9 +172,7 @@ int main(int argc, char** argv) {
   }
 
   models::KeepFreedMemoryForReuse();  // the models' activations, freed on worker threads
-  models::SetTorchThreads(config.torch_threads > 0
-                              ? config.torch_threads
-                              : static_cast<int>(std::thread::hardware_concurrency()));
+  models::SetTorchThreads(config.torch_threads);  // 0: one per CPU
   auto stiffness_model = LoadStiffnessModel(config.stiffness_model);
   if (!stiffness_model) {
     std::cerr << "softgrasp-server: the stiffness model cannot be loaded: "

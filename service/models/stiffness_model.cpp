@@ -6,6 +6,7 @@
 #include <cmath>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
+#include <thread>
 
 #include "service/models/network.h"
 
@@ -29,7 +30,10 @@ cv::Mat1f MakeModelInput(const core::Scene& scene, cv::Size size) {
   return out;
 }
 
-void SetTorchThreads(int n) { torch::set_num_threads(std::max(1, n)); }
+void SetTorchThreads(int n) {
+  const int per_cpu = static_cast<int>(std::thread::hardware_concurrency());
+  torch::set_num_threads(n > 0 ? n : std::max(1, per_cpu));
+}
 
 void KeepFreedMemoryForReuse() {
   // Setting either value also switches off glibc's dynamic mmap threshold. 32 MiB is the

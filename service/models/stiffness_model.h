@@ -35,7 +35,8 @@ inline cv::Mat1f MakeModelInput(const core::Scene& scene, int side) {
 /// Without it a sigmoid's small background residue dominates SSIM on background regions.
 inline constexpr float kBackgroundThreshold = 0.05f;
 
-/// Threads libtorch uses for intra-op parallelism (process-wide). n >= 1.
+/// Threads libtorch uses for intra-op parallelism (process-wide): n, or one per online CPU when
+/// n <= 0 (libtorch itself counts physical cores: one on a 2-vCPU VM).
 void SetTorchThreads(int n);
 
 /// Makes glibc's allocator keep freed memory of a process for reuse instead of returning it to

@@ -7,7 +7,6 @@
 #include <benchmark/benchmark.h>
 
 #include <opencv2/core/utility.hpp>
-#include <thread>
 
 #include "service/io/depth_codec.h"
 #include "service/models/stiffness_model.h"
@@ -141,7 +140,7 @@ int main(int argc, char** argv) {
   // One OpenCV thread for the engine, as the FGE goal states; libtorch one thread per CPU and
   // freed memory kept, as in softgrasp-server.
   cv::setNumThreads(1);
-  softgrasp::models::SetTorchThreads(static_cast<int>(std::thread::hardware_concurrency()));
+  softgrasp::models::SetTorchThreads(0);  // one per CPU, as the server
   softgrasp::models::KeepFreedMemoryForReuse();
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
