@@ -980,15 +980,9 @@ cv::Mat2f FastFge::PoolSums(const cv::Mat1f& values, const cv::Mat1b& mask) cons
   return out;
 }
 
-std::vector<std::vector<FastFge::RegionCandidate>> FastFge::Candidates(
-    double angle_rad, const std::vector<cv::Mat2f>& pooled, int grid_step) {
-  last_canvas_.reset();  // MakeCanvas reuses the buffer that a pending turn would read
-  return CandidatesWith(angle_rad, pooled, grid_step, *ws_);
-}
-
 std::vector<std::vector<std::vector<FastFge::RegionCandidate>>> FastFge::CandidatesAtAngles(
     const std::vector<double>& angles_rad, const std::vector<cv::Mat2f>& pooled, int grid_step) {
-  last_canvas_.reset();
+  last_canvas_.reset();  // LocalMaxima's pending turn: its buffer is not read any more
   std::vector<std::vector<std::vector<RegionCandidate>>> result(angles_rad.size());
   const int n = static_cast<int>(angles_rad.size());
   const int stripes = std::max(1, std::min(n, cv::getNumThreads()));

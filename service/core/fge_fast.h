@@ -58,16 +58,12 @@ class FastFge {
     cv::Vec2d sums;          ///< box sums of the slice's pooled map over T_t (both channels)
   };
   /// Every candidate (A_t >= min contact, no finger/palm collision, no slip, no seam: the
-  /// non-zero pixels of Maps' graspability) of every slice at one angle on the canvas grid of
-  /// `grid_step` work pixels; result[i] is slices()[i]. `pooled[i]` (PoolSums of an image-size
-  /// map; empty or missing: sums 0) is rotated with the level image and read as box sums over
-  /// each candidate's closing region T_t, e.g. S * I_t and I_t for a mean of S over I_t.
-  std::vector<std::vector<RegionCandidate>> Candidates(double angle_rad,
-                                                       const std::vector<cv::Mat2f>& pooled,
-                                                       int grid_step = 1);
-  /// Candidates at each angle, result[k] for angles_rad[k], the angles spread over OpenCV's
-  /// threads (cv::parallel_for_, one workspace per thread): the same as calling Candidates for
-  /// each angle in turn.
+  /// non-zero pixels of Maps' graspability) of every slice at each angle on the canvas grid of
+  /// `grid_step` work pixels; result[k][i] is angles_rad[k] and slices()[i]. `pooled[i]`
+  /// (PoolSums of an image-size map; empty or missing: sums 0) is rotated with the level image
+  /// and read as box sums over each candidate's closing region T_t, e.g. S * I_t and I_t for a
+  /// mean of S over I_t. The angles are spread over OpenCV's threads (cv::parallel_for_, one
+  /// workspace per thread); the result does not depend on the thread count.
   std::vector<std::vector<std::vector<RegionCandidate>>> CandidatesAtAngles(
       const std::vector<double>& angles_rad, const std::vector<cv::Mat2f>& pooled,
       int grid_step = 1);

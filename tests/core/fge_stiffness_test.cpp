@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <opencv2/core/utility.hpp>
 #include <set>
 #include <stdexcept>
 
@@ -281,6 +282,28 @@ TEST(DetectGraspsStiffness, ASharedSliceSearchGivesTheSameGraspsForEachOpening) 
     found += own.size();
   }
   EXPECT_GT(found, 0u);
+}
+
+// The candidates of the angles are computed on OpenCV's threads: one thread or two, the same
+// grasps in the same order.
+TEST(DetectGraspsStiffness, TheGraspsDoNotDependOnTheThreadCount) {
+  const Prepared s = Make(testing::ClutterSceneSpec());
+  const cv::Mat1f map = MapById(s.synth, {0.0f, 1.0f, 0.3f, 0.8f, 0.5f, 1.0f, 0.2f, 0.9f, 0.6f});
+  const int threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  const auto one = DetectGraspsStiffness(s.scene, s.synth.camera, map, Gripper{});
+  cv::setNumThreads(2);
+  const auto two = DetectGraspsStiffness(s.scene, s.synth.camera, map, Gripper{});
+  cv::setNumThreads(threads);
+  ASSERT_FALSE(one.empty());
+  ASSERT_EQ(one.size(), two.size());
+  for (std::size_t i = 0; i < one.size(); ++i) {
+    EXPECT_EQ(one[i].center_u_px, two[i].center_u_px);
+    EXPECT_EQ(one[i].center_v_px, two[i].center_v_px);
+    EXPECT_EQ(one[i].angle_rad, two[i].angle_rad);
+    EXPECT_EQ(one[i].score, two[i].score);
+    EXPECT_EQ(one[i].mean_stiffness, two[i].mean_stiffness);
+  }
 }
 
 // The work a slice search does before it looks at the contact mask is shared by every target
