@@ -6,6 +6,8 @@
 #include <opencv2/core/utility.hpp>
 #include <set>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "service/core/metrics.h"
 #include "tests/support/grasp_footprint.h"
@@ -240,6 +242,20 @@ TEST(DetectGraspsStiffness, FastMeanMatchesThePerPixelMean) {
   }
 }
 
+// The same grasps, in the same order, field by field.
+void ExpectSameGrasps(const std::vector<Grasp>& a, const std::vector<Grasp>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].center_u_px, b[i].center_u_px) << "grasp " << i;
+    EXPECT_EQ(a[i].center_v_px, b[i].center_v_px) << "grasp " << i;
+    EXPECT_EQ(a[i].angle_rad, b[i].angle_rad) << "grasp " << i;
+    EXPECT_EQ(a[i].opening_px, b[i].opening_px) << "grasp " << i;
+    EXPECT_EQ(a[i].grasp_height_m, b[i].grasp_height_m) << "grasp " << i;
+    EXPECT_EQ(a[i].score, b[i].score) << "grasp " << i;
+    EXPECT_EQ(a[i].mean_stiffness, b[i].mean_stiffness) << "grasp " << i;
+  }
+}
+
 TEST(DetectGraspsStiffness, Deterministic) {
   const Prepared s = Make(testing::ClutterSceneSpec());
   cv::Mat1f map(s.scene.height_m.size());
@@ -248,14 +264,8 @@ TEST(DetectGraspsStiffness, Deterministic) {
   }
   const auto a = DetectGraspsStiffness(s.scene, s.synth.camera, map, Gripper{});
   const auto b = DetectGraspsStiffness(s.scene, s.synth.camera, map, Gripper{});
-  ASSERT_EQ(a.size(), b.size());
   ASSERT_FALSE(a.empty());
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i].center_u_px, b[i].center_u_px);
-    EXPECT_EQ(a[i].center_v_px, b[i].center_v_px);
-    EXPECT_EQ(a[i].angle_rad, b[i].angle_rad);
-    EXPECT_EQ(a[i].mean_stiffness, b[i].mean_stiffness);
-  }
+  ExpectSameGrasps(a, b);
 }
 
 // One slice search serves every opening: the grasps are those of a search made per call.
@@ -271,14 +281,8 @@ TEST(DetectGraspsStiffness, ASharedSliceSearchGivesTheSameGraspsForEachOpening) 
     opened.opening_stroke_m = full.opening_stroke_m * fraction;
     const auto own = DetectGraspsStiffness(s.scene, s.synth.camera, map, opened);
     const auto shared = DetectGraspsStiffness(s.scene, s.synth.camera, map, opened, {}, search);
-    ASSERT_EQ(own.size(), shared.size()) << "opening fraction " << fraction;
-    for (std::size_t i = 0; i < own.size(); ++i) {
-      EXPECT_EQ(own[i].center_u_px, shared[i].center_u_px);
-      EXPECT_EQ(own[i].center_v_px, shared[i].center_v_px);
-      EXPECT_EQ(own[i].angle_rad, shared[i].angle_rad);
-      EXPECT_EQ(own[i].opening_px, shared[i].opening_px);
-      EXPECT_EQ(own[i].grasp_height_m, shared[i].grasp_height_m);
-    }
+    SCOPED_TRACE("opening fraction " + std::to_string(fraction));
+    ExpectSameGrasps(own, shared);
     found += own.size();
   }
   EXPECT_GT(found, 0u);
@@ -296,14 +300,7 @@ TEST(DetectGraspsStiffness, TheGraspsDoNotDependOnTheThreadCount) {
   const auto two = DetectGraspsStiffness(s.scene, s.synth.camera, map, Gripper{});
   cv::setNumThreads(threads);
   ASSERT_FALSE(one.empty());
-  ASSERT_EQ(one.size(), two.size());
-  for (std::size_t i = 0; i < one.size(); ++i) {
-    EXPECT_EQ(one[i].center_u_px, two[i].center_u_px);
-    EXPECT_EQ(one[i].center_v_px, two[i].center_v_px);
-    EXPECT_EQ(one[i].angle_rad, two[i].angle_rad);
-    EXPECT_EQ(one[i].score, two[i].score);
-    EXPECT_EQ(one[i].mean_stiffness, two[i].mean_stiffness);
-  }
+  ExpectSameGrasps(one, two);
 }
 
 // The work a slice search does before it looks at the contact mask is shared by every target
