@@ -10,6 +10,8 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "service/core/fge_geometry.h"
@@ -126,27 +128,49 @@ double Quantile(std::vector<float> values, double q) {
   return values[k];
 }
 
-/// The target's mask grown into the unlabelled foreground connected to it.
-cv::Mat1b GrownTarget(const ObjectMaps& objects, int target_id) {
-  const cv::Mat1b target = objects.labels == target_id;
-  if (objects.foreground.empty()) return target;
-  const cv::Mat1b region = target | ((objects.labels == 0) & (objects.foreground >= 0.5f));
-  cv::Mat1i components;
-  const int n = cv::connectedComponents(region, components, 8, CV_32S);
-  std::vector<bool> keep(static_cast<std::size_t>(n), false);
-  for (int v = 0; v < target.rows; ++v) {
-    for (int u = 0; u < target.cols; ++u) {
-      if (target(v, u)) keep[static_cast<std::size_t>(components(v, u))] = true;
-    }
+/// The unlabelled foreground (foreground >= 0.5 where no instance is) in 8-connected pieces,
+/// found once per request: a target grows into the pieces that touch it (GrownTarget).
+class ForegroundPieces {
+ public:
+  explicit ForegroundPieces(const ObjectMaps& objects) {
+    if (objects.foreground.empty()) return;
+    const cv::Mat1b unlabelled = (objects.labels == 0) & (objects.foreground >= 0.5f);
+    cv::Mat centroids;
+    count_ = cv::connectedComponentsWithStats(unlabelled, pieces_, stats_, centroids, 8, CV_32S);
   }
-  cv::Mat1b grown(target.size(), static_cast<unsigned char>(0));
-  for (int v = 0; v < target.rows; ++v) {
-    for (int u = 0; u < target.cols; ++u) {
-      if (region(v, u) && keep[static_cast<std::size_t>(components(v, u))]) grown(v, u) = 255;
+
+  /// The target's mask grown into the unlabelled foreground connected to it: the pieces with a
+  /// pixel 8-adjacent to the target (the same as the target's connected components in the
+  /// target together with the unlabelled foreground).
+  cv::Mat1b GrownTarget(const cv::Mat1w& labels, int target_id) const {
+    cv::Mat1b grown = labels == target_id;
+    if (count_ <= 1) return grown;
+    const cv::Rect image(cv::Point(0, 0), labels.size());
+    const cv::Rect box = cv::boundingRect(grown);
+    const cv::Rect around = cv::Rect(box.x - 1, box.y - 1, box.width + 2, box.height + 2) & image;
+    std::vector<bool> touching(static_cast<std::size_t>(count_), false);
+    for (int v = around.y; v < around.y + around.height; ++v) {
+      for (int u = around.x; u < around.x + around.width; ++u) {
+        const int piece = pieces_(v, u);
+        if (piece == 0 || touching[static_cast<std::size_t>(piece)]) continue;
+        const cv::Rect near = cv::Rect(u - 1, v - 1, 3, 3) & image;
+        if (cv::countNonZero(grown(near)) > 0) touching[static_cast<std::size_t>(piece)] = true;
+      }
     }
+    for (int piece = 1; piece < count_; ++piece) {
+      if (!touching[static_cast<std::size_t>(piece)]) continue;
+      const cv::Rect b(stats_(piece, cv::CC_STAT_LEFT), stats_(piece, cv::CC_STAT_TOP),
+                       stats_(piece, cv::CC_STAT_WIDTH), stats_(piece, cv::CC_STAT_HEIGHT));
+      grown(b).setTo(255, pieces_(b) == piece);
+    }
+    return grown;
   }
-  return grown;
-}
+
+ private:
+  int count_ = 0;  ///< pieces + 1 (label 0 is the rest)
+  cv::Mat1i pieces_;
+  cv::Mat1i stats_;
+};
 
 /// The part of `target` joined to `seed` by 8-connected neighbours whose heights differ by at
 /// most `step_m` (DeformabilityParams::target_px); the whole target when the seed is not on it.
@@ -163,6 +187,57 @@ cv::Mat1b ClickedPart(const Scene& scene, const cv::Mat1b& target, cv::Point see
   return mask(cv::Rect(1, 1, target.cols, target.rows)) == kFilled;
 }
 
+/// Heights with soft pixels lowered by the press depth (a finger may push that far into them).
+cv::Mat1f Pressed(const cv::Mat1f& height_m, const cv::Mat1b& soft, double press_depth_m) {
+  cv::Mat1f out = height_m.clone();
+  const cv::Mat1f lowered = cv::max(height_m - static_cast<float>(press_depth_m), 0.0f);
+  lowered.copyTo(out, soft);
+  return out;
+}
+
+/// What the slice search finds before it looks at a target (fge_detail::FreeSpace), made at
+/// most once per request for the heights as seen and once for the heights with every soft
+/// instance pressed: the latter is what every target that is not soft itself sees when it
+/// presses its soft neighbours. Both are made when first asked for.
+class SharedSearch {
+ public:
+  SharedSearch(const Scene& scene, const ObjectMaps& objects, const Camera& camera,
+               const DeformabilityParams& params, const FgeParams& fge)
+      : scene_(scene), camera_(camera), params_(params), fge_(fge) {
+    soft_ = (objects.labels != 0) &
+            (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
+  }
+
+  /// Every soft instance's pixels.
+  const cv::Mat1b& soft() const { return soft_; }
+
+  fge_detail::FreeSpace& AsSeen() {
+    if (!as_seen_) as_seen_.emplace(scene_.height_m, PxPerMetre(), fge_);
+    return *as_seen_;
+  }
+
+  /// The heights with every soft instance pressed, and their free space.
+  std::pair<cv::Mat1f, fge_detail::FreeSpace*> AllPressed() {
+    if (!all_pressed_) {
+      pressed_heights_ = Pressed(scene_.height_m, soft_, params_.max_press_depth_m);
+      all_pressed_.emplace(pressed_heights_, PxPerMetre(), fge_);
+    }
+    return {pressed_heights_, &*all_pressed_};
+  }
+
+ private:
+  double PxPerMetre() const { return fge_detail::PxPerMetre(scene_.floor, camera_, 0); }
+
+  const Scene& scene_;
+  const Camera& camera_;
+  const DeformabilityParams& params_;
+  const FgeParams fge_;
+  cv::Mat1b soft_;
+  std::optional<fge_detail::FreeSpace> as_seen_;
+  cv::Mat1f pressed_heights_;
+  std::optional<fge_detail::FreeSpace> all_pressed_;
+};
+
 /// The scene the planner sees for one target: contact only on the (grown) target's stiff part
 /// (thesis §5.3.3: the soft part is never contact and stays an obstacle; `contact` as
 /// StiffPart made it). `soft`: the pixels of soft neighbours; with `press` they are lowered by
@@ -171,20 +246,25 @@ struct TargetView {
   Scene scene;
   cv::Mat1b soft;
   bool pressable = false;  ///< there are soft neighbours and a press depth
+  /// For scene.height_m, shared with other targets; null: the target's own (a soft target).
+  fge_detail::FreeSpace* free_space = nullptr;
 };
 
 TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
-                         const cv::Mat1b& contact, const DeformabilityParams& params, bool press) {
-  TargetView out{scene, {}, false};
+                         const cv::Mat1b& contact, const DeformabilityParams& params, bool press,
+                         SharedSearch& shared) {
+  TargetView out{scene, {}, false, nullptr};
   out.scene.contact_allowed = contact;
-  out.soft = (objects.labels != 0) & (objects.labels != target_id) &
-             (objects.deformability > static_cast<float>(params.soft_obstacle_threshold));
+  const cv::Mat1b own = objects.labels == target_id;
+  const bool soft_target = cv::countNonZero(shared.soft() & own) > 0;
+  out.soft = soft_target ? shared.soft() & ~own : shared.soft();
   out.pressable = params.max_press_depth_m > 0 && cv::countNonZero(out.soft) > 0;
-  if (press && out.pressable) {
-    out.scene.height_m = scene.height_m.clone();
-    cv::Mat1f pressed =
-        cv::max(scene.height_m - static_cast<float>(params.max_press_depth_m), 0.0f);
-    pressed.copyTo(out.scene.height_m, out.soft);
+  if (!press) {
+    out.free_space = &shared.AsSeen();
+  } else if (out.pressable && soft_target) {
+    out.scene.height_m = Pressed(scene.height_m, out.soft, params.max_press_depth_m);
+  } else if (out.pressable) {
+    std::tie(out.scene.height_m, out.free_space) = shared.AllPressed();
   }
   return out;
 }
@@ -324,16 +404,15 @@ namespace {
 /// that gives a grasp kept; with `pressed`, grasps with a soft neighbour between the fingers are
 /// dropped. Returns 0 when no opening gave a grasp, 1 when the grasps replaced `result`'s (the
 /// first found, or less deformable than *best_deformability by more than the tie tolerance), -1
-/// when a grasp was found but not kept. `free_space` (may be null): made for view.scene's heights.
+/// when a grasp was found but not kept.
 int PlanOpenings(const Scene& scene, const TargetView& view, bool pressed, const Camera& camera,
                  const cv::Mat1f& stiffness, const Gripper& gripper, const StiffnessFgeParams& sp,
                  const DeformabilityParams& params, int id, const cv::Mat1w& labels,
-                 fge_detail::FreeSpace* free_space, double* best_deformability,
-                 DeformabilityResult* result) {
+                 double* best_deformability, DeformabilityResult* result) {
   const FingerClearance clearance(view.scene, camera);
   const fge_detail::SliceSearch search =
-      free_space ? StiffnessSliceSearch(view.scene, camera, gripper, sp, *free_space)
-                 : StiffnessSliceSearch(view.scene, camera, gripper, sp);
+      view.free_space ? StiffnessSliceSearch(view.scene, camera, gripper, sp, *view.free_space)
+                      : StiffnessSliceSearch(view.scene, camera, gripper, sp);
   for (std::size_t k = 0; k < params.opening_fractions.size(); ++k) {
     const double fraction = params.opening_fractions[k];
     Gripper opened = gripper;
@@ -402,9 +481,11 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
   // the whole of it (the gentlest closing region still ranks first): the user asked for that
   // object, and the rule would otherwise leave a bottle whose cap is out of reach, or a carton
   // whose soft-looking lid the rule cuts away, with no grasp at all.
-  // The heights as seen are the same for every target: what the slice search finds on them
-  // before it looks at a target is found once (views that press soft neighbours change them).
-  std::optional<fge_detail::FreeSpace> free_space;
+  // The heights as seen are the same for every target, and so are the pressed heights of every
+  // target that is not soft itself: what the slice search finds on them before it looks at a
+  // target is found once.
+  SharedSearch shared(scene, objects, camera, params, sp.fge);
+  const ForegroundPieces pieces(objects);
   const bool named = params.target_id > 0;
   const double passes[] = {0.0, params.min_part_contrast,
                            named ? std::numeric_limits<double>::infinity() : 0.0};
@@ -423,7 +504,7 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
       const int id = candidate.id;
       ++planned;
       if (pass == 0) result.tried_ids.push_back(id);
-      cv::Mat1b grown = GrownTarget(objects, id);
+      cv::Mat1b grown = pieces.GrownTarget(objects.labels, id);
       if (named && params.target_px) {
         grown = ClickedPart(scene, grown, *params.target_px, params.fge.seam_step_m);
       }
@@ -436,15 +517,11 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
       // target gives none without (a "neighbour" is sometimes a piece of the target itself that
       // the segmentation split off, and pressing into it lands the finger on the target).
       for (const bool press : {false, true}) {
-        const TargetView view = ViewForTarget(scene, objects, id, contact, params, press);
-        if (cv::countNonZero(contact) == 0 || (press && !view.pressable)) break;
-        if (!press && !free_space) {
-          free_space.emplace(scene.height_m, fge_detail::PxPerMetre(scene.floor, camera, 0),
-                             sp.fge);
-        }
+        if (cv::countNonZero(contact) == 0) break;
+        const TargetView view = ViewForTarget(scene, objects, id, contact, params, press, shared);
+        if (press && !view.pressable) break;
         const int found = PlanOpenings(scene, view, press, camera, stiffness, gripper, sp, params,
-                                       id, objects.labels, press ? nullptr : &*free_space,
-                                       &best_deformability, &result);
+                                       id, objects.labels, &best_deformability, &result);
         if (found != 0) break;  // a grasp (kept or not better than the best): no pressing needed
       }
     }

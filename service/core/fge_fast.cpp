@@ -973,7 +973,7 @@ cv::Mat2f FastFge::PoolSums(const cv::Mat1f& values, const cv::Mat1b& mask) cons
     for (int u = u0; u < u1; ++u) {
       if (!set[u]) continue;
       cv::Vec2f& d = dst[u / scale_ - crop_.x];
-      d[0] += value[u];
+      d[0] += value[u] >= 0.0f ? std::min(value[u], 1.0f) : 0.0f;  // NaN fails the test
       d[1] += 1.0f;
     }
   }

@@ -47,7 +47,8 @@ class FastFge {
 
   /// Block sums at work resolution over the crop (zeros outside the image) of `values` where
   /// `mask` is set (channel 0) and of the mask's pixel count (channel 1); both image size. The
-  /// input of Candidates; sums stay in image-pixel units.
+  /// values are fractions: each counts clamped to [0, 1], NaN as 0. The input of
+  /// CandidatesAtAngles; sums stay in image-pixel units.
   cv::Mat2f PoolSums(const cv::Mat1f& values, const cv::Mat1b& mask) const;
 
   /// A candidate of one slice at one angle with its sums of a pooled map over the closing region.

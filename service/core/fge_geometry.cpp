@@ -504,12 +504,18 @@ bool StableContacts(const cv::Mat1f& height_m, double u_px, double v_px, double 
   std::vector<int> left(right.size(), none);  // stores -a so both sides use "max"
   const float* const heights = height_m.ptr<float>(0);
   const std::size_t row_step = height_m.step1();
-  const auto cols = static_cast<double>(height_m.cols), rows = static_cast<double>(height_m.rows);
-  // Whether the surface at (u, v) + 0.5 (truncation rounds; inside the image the coordinates
-  // are >= -0.5) is above the tips.
-  const auto above_tips = [&](double u, double v) {
-    if (u < 0 || v < 0 || u >= cols || v >= rows) return false;
-    return heights[static_cast<std::size_t>(v) * row_step + static_cast<std::size_t>(u)] > tip;
+  const auto cols = static_cast<std::uint64_t>(height_m.cols);
+  const auto rows = static_cast<std::uint64_t>(height_m.rows);
+  // The walk runs in fixed point (32 fractional bits): an arithmetic shift is the floor, and
+  // negative coordinates become huge when unsigned, so one compare per axis tells outside.
+  constexpr double kOne = 4294967296.0;
+  const auto fixed = [](double x) { return static_cast<std::int64_t>(std::llround(x * kOne)); };
+  const std::int64_t step_u = fixed(cs), step_v = fixed(sn);
+  // Whether the surface at (u, v) + 0.5 (the floor of the shifted coordinates rounds) is above
+  // the tips; outside the image it is not.
+  const auto above_tips = [&](std::int64_t u, std::int64_t v) {
+    const auto x = static_cast<std::uint64_t>(u >> 32), y = static_cast<std::uint64_t>(v >> 32);
+    return x < cols && y < rows && heights[y * row_step + x] > tip;
   };
   for (int b = -half_width; b <= half_width; ++b) {
     // Each finger meets the line's outermost surface pixel on its side: walk in from each end
@@ -517,14 +523,14 @@ bool StableContacts(const cv::Mat1f& height_m, double u_px, double v_px, double 
     const double u_left = u_px - half_len * cs - b * sn + 0.5;
     const double v_left = v_px - half_len * sn + b * cs + 0.5;
     int a_right = half_len;
-    double u = u_left + 2 * half_len * cs, v = v_left + 2 * half_len * sn;
-    for (; a_right >= -half_len && !above_tips(u, v); --a_right, u -= cs, v -= sn) {
+    std::int64_t u = fixed(u_left + 2 * half_len * cs), v = fixed(v_left + 2 * half_len * sn);
+    for (; a_right >= -half_len && !above_tips(u, v); --a_right, u -= step_u, v -= step_v) {
     }
     if (a_right < -half_len) continue;  // nothing on this line
     int a_left = -half_len;
-    u = u_left;
-    v = v_left;
-    for (; !above_tips(u, v) && a_left < a_right; ++a_left, u += cs, v += sn) {
+    u = fixed(u_left);
+    v = fixed(v_left);
+    for (; !above_tips(u, v) && a_left < a_right; ++a_left, u += step_u, v += step_v) {
     }
     right[static_cast<std::size_t>(b + half_width)] = a_right;
     left[static_cast<std::size_t>(b + half_width)] = -a_left;  // -a so both sides use "max"

@@ -90,7 +90,6 @@ struct SliceData {
   Slice slice;
   double px_per_m = 0;
   GripperPx gripper;
-  cv::Mat1b contact;  // I_t: graspable surface above the contact height
 };
 
 /// Candidates of one (angle, slice) map with the ranking key; A_st / A_t from the box sums.
@@ -220,10 +219,8 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
         "size");
   }
   // NaN / out-of-range map values count as the softest score (never preferred).
-  cv::Mat1f stiffness = stiffness_map.clone();
-  cv::patchNaNs(stiffness, 0.0);
-  cv::min(cv::max(stiffness, 0.0f), 1.0f, stiffness);
-
+  // NaN / out-of-range map values count as the softest score (never preferred): PoolSums reads
+  // the map as fractions in [0, 1], so it is not copied and cleaned here.
   std::vector<SliceData> slices;
   std::vector<Candidate> all;
   std::vector<Grasp> grasps;
@@ -247,8 +244,9 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
       sd.slice = s;
       sd.px_per_m = fge_detail::PxPerMetre(scene.floor, camera, s.contact_height_m);
       sd.gripper = fge_detail::GripperAtScale(gripper, sd.px_per_m);
-      sd.contact = (scene.height_m > static_cast<float>(s.contact_height_m)) & search.graspable;
-      pooled.push_back(fast.PoolSums(stiffness, sd.contact));
+      const cv::Mat1b contact =  // I_t: graspable surface above the contact height
+          (scene.height_m > static_cast<float>(s.contact_height_m)) & search.graspable;
+      pooled.push_back(fast.PoolSums(stiffness_map, contact));
       slices.push_back(std::move(sd));
     }
     const int grid_step = std::max(1, params.candidate_step_px / fast.scale());

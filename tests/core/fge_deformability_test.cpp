@@ -175,6 +175,31 @@ TEST(DetectGraspsDeformability, PressesSoftSpongesAsideToReachABox) {
                   .grasps.empty());
 }
 
+TEST(DetectGraspsDeformability, ASoftTargetPressesItsSoftNeighboursButNotItself) {
+  // The box between the sponges is as soft as they are. Pressing lowers its neighbours only:
+  // the grasps are those of the rigid box (the box is one material either way), and the shared
+  // pressed heights that rigid targets use, where the box would be lowered too, are not used.
+  const Prepared rigid = BoxAndSponges(BoxBetweenSponges());
+  const Prepared soft = Make(BoxBetweenSponges(), {{1, 1}, {2, 2}, {3, 3}},
+                             {{1, 0.9f}, {2, 0.9f}, {3, 0.9f}}, {0.9f, 0.9f, 0.9f});
+  DeformabilityParams params;
+  params.target_id = 1;
+  const auto a =
+      DetectGraspsDeformability(rigid.scene, rigid.synth.camera, rigid.objects, Gripper{}, params);
+  const auto b =
+      DetectGraspsDeformability(soft.scene, soft.synth.camera, soft.objects, Gripper{}, params);
+  ASSERT_FALSE(a.grasps.empty());
+  ASSERT_EQ(a.grasps.size(), b.grasps.size());
+  for (std::size_t i = 0; i < a.grasps.size(); ++i) {
+    EXPECT_EQ(a.grasps[i].grasp.center_u_px, b.grasps[i].grasp.center_u_px) << i;
+    EXPECT_EQ(a.grasps[i].grasp.center_v_px, b.grasps[i].grasp.center_v_px) << i;
+    EXPECT_EQ(a.grasps[i].grasp.angle_rad, b.grasps[i].grasp.angle_rad) << i;
+    EXPECT_EQ(a.grasps[i].grasp.grasp_height_m, b.grasps[i].grasp.grasp_height_m) << i;
+    EXPECT_EQ(b.grasps[i].pressed_ids, (std::vector<int>{2, 3})) << i;
+    EXPECT_NEAR(b.grasps[i].mean_deformability, 0.9, 1e-3) << i;
+  }
+}
+
 TEST(DetectGraspsDeformability, NeverPressesASpongeThatFillsTheGap) {
   // The same box with the sponges flush against its long sides: a finger pressing a sponge
   // would have the sponge between itself and the box and squeeze both. No grasp.
@@ -436,6 +461,24 @@ TEST(DetectGraspsDeformability, AMaskCoveringPartOfItsObjectGrowsIntoTheUnlabell
   EXPECT_EQ(grown.target_id, 1);
   ASSERT_FALSE(grown.grasps.empty());
   EXPECT_EQ(BoxAtCenter(s, grown.grasps.front().grasp), 1);
+}
+
+TEST(DetectGraspsDeformability, AMaskDoesNotGrowIntoForegroundThatDoesNotTouchIt) {
+  // Box 2 is foreground without an instance but stands apart from instance 1: the target grows
+  // only into the pieces that touch it, so every grasp stays on box 1.
+  SceneSpec spec;
+  spec.boxes = {Box{0.0, 0.0, 0.030, 0.070, 0.040, 0.0, 1},
+                Box{0.12, 0.0, 0.030, 0.070, 0.060, 0.0, 2}};
+  Prepared s = Make(spec, {{1, 1}, {2, 0}}, {{1, 0.1f}, {2, 0.1f}}, {0.9f});
+  s.objects.foreground = cv::Mat1f(s.objects.labels.size(), 0.0f);
+  s.objects.foreground.setTo(1.0f, s.synth.object_id > 0);
+  DeformabilityParams params;
+  params.whole_scene_fallback = false;
+  const auto result =
+      DetectGraspsDeformability(s.scene, s.synth.camera, s.objects, Gripper{}, params);
+  EXPECT_EQ(result.target_id, 1);
+  ASSERT_FALSE(result.grasps.empty());
+  for (const auto& g : result.grasps) EXPECT_EQ(BoxAtCenter(s, g.grasp), 1);
 }
 
 // A segmentation that merged a box with the taller sponge beside it (one instance, and a map

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <opencv2/core/utility.hpp>
 #include <set>
 #include <stdexcept>
@@ -33,6 +34,20 @@ Prepared Make(const SceneSpec& spec) {
   if (!scene.ok()) throw std::runtime_error(scene.error().message);
   s.scene = std::move(scene).value();
   return s;
+}
+
+// The same grasps, in the same order, field by field.
+void ExpectSameGrasps(const std::vector<Grasp>& a, const std::vector<Grasp>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].center_u_px, b[i].center_u_px) << "grasp " << i;
+    EXPECT_EQ(a[i].center_v_px, b[i].center_v_px) << "grasp " << i;
+    EXPECT_EQ(a[i].angle_rad, b[i].angle_rad) << "grasp " << i;
+    EXPECT_EQ(a[i].opening_px, b[i].opening_px) << "grasp " << i;
+    EXPECT_EQ(a[i].grasp_height_m, b[i].grasp_height_m) << "grasp " << i;
+    EXPECT_EQ(a[i].score, b[i].score) << "grasp " << i;
+    EXPECT_EQ(a[i].mean_stiffness, b[i].mean_stiffness) << "grasp " << i;
+  }
 }
 
 // Stiffness per object id (0 on the table and where nothing is hit).
@@ -208,6 +223,14 @@ TEST(DetectGraspsStiffness, BadInputThrowsOrYieldsNothing) {
   const auto grasps = DetectGraspsStiffness(s.scene, s.synth.camera, nan, Gripper{});
   ASSERT_FALSE(grasps.empty());
   EXPECT_EQ(grasps.front().mean_stiffness, 0.0);
+  // Values out of [0, 1] count as the nearest end: 3 as 1, -2 as 0, +-infinity likewise.
+  const cv::Mat1f high = MapById(s.synth, {0, 3.0f, 3.0f}), one = MapById(s.synth, {0, 1, 1});
+  const cv::Mat1f low = MapById(s.synth, {0, -2.0f, -std::numeric_limits<float>::infinity()});
+  ExpectSameGrasps(DetectGraspsStiffness(s.scene, s.synth.camera, high, Gripper{}),
+                   DetectGraspsStiffness(s.scene, s.synth.camera, one, Gripper{}));
+  const auto from_low = DetectGraspsStiffness(s.scene, s.synth.camera, low, Gripper{});
+  ASSERT_FALSE(from_low.empty());
+  EXPECT_EQ(from_low.front().mean_stiffness, 0.0);
   // A flat table: nothing to grasp.
   const Prepared flat = Make(SceneSpec{});
   EXPECT_TRUE(DetectGraspsStiffness(flat.scene, flat.synth.camera,
@@ -239,20 +262,6 @@ TEST(DetectGraspsStiffness, FastMeanMatchesThePerPixelMean) {
       EXPECT_NEAR(g.mean_stiffness, reference, 0.015)
           << "grasp at " << g.center_u_px << "," << g.center_v_px << " angle " << g.angle_rad;
     }
-  }
-}
-
-// The same grasps, in the same order, field by field.
-void ExpectSameGrasps(const std::vector<Grasp>& a, const std::vector<Grasp>& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i].center_u_px, b[i].center_u_px) << "grasp " << i;
-    EXPECT_EQ(a[i].center_v_px, b[i].center_v_px) << "grasp " << i;
-    EXPECT_EQ(a[i].angle_rad, b[i].angle_rad) << "grasp " << i;
-    EXPECT_EQ(a[i].opening_px, b[i].opening_px) << "grasp " << i;
-    EXPECT_EQ(a[i].grasp_height_m, b[i].grasp_height_m) << "grasp " << i;
-    EXPECT_EQ(a[i].score, b[i].score) << "grasp " << i;
-    EXPECT_EQ(a[i].mean_stiffness, b[i].mean_stiffness) << "grasp " << i;
   }
 }
 
