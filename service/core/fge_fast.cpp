@@ -542,8 +542,18 @@ FastFge::FastFge(const Scene& scene, const Camera& camera, const Gripper& grippe
 
   const cv::Mat1f height = ConservativePool(scene.height_m, scale_);
   work_size_ = height.size();
-  const cv::Mat1b work_levels =
-      LevelImage(height, levels, PoolMax<std::uint8_t>(graspable, scale_, 0, 0));
+  const cv::Mat1b graspable_work = PoolMax<std::uint8_t>(graspable, scale_, 0, 0);
+  // The crop below lies within a template's reach of the lowest I_t, which is graspable: the
+  // levels are only needed within that reach of the graspable pixels (a target's mask is
+  // usually a small part of the image).
+  const cv::Rect whole(cv::Point(0, 0), work_size_);
+  const cv::Rect g = graspable_work.empty() ? cv::Rect() : cv::boundingRect(graspable_work);
+  if (g.empty()) return;
+  const cv::Rect near = cv::Rect(g.x - margin_px_, g.y - margin_px_, g.width + 2 * margin_px_,
+                                 g.height + 2 * margin_px_) &
+                        whole;
+  cv::Mat1b work_levels = cv::Mat1b::zeros(work_size_);
+  LevelImage(height(near), levels, graspable_work(near)).copyTo(work_levels(near));
   // Candidates need contact with I_t at some slice; obstacles farther than a template's reach
   // from every I_t pixel cannot change any candidate, so the crop follows the lowest I_t.
   cv::Mat1b lowest_contact;
