@@ -218,7 +218,6 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
         "DetectGraspsStiffness: the stiffness map must have the scene's "
         "size");
   }
-  // NaN / out-of-range map values count as the softest score (never preferred).
   // NaN / out-of-range map values count as the softest score (never preferred): PoolSums reads
   // the map as fractions in [0, 1], so it is not copied and cleaned here.
   std::vector<SliceData> slices;
