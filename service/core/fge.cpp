@@ -15,12 +15,13 @@ namespace softgrasp::core {
 namespace {
 
 using fge_detail::AngleOf;
+using fge_detail::CheckContacts;
+using fge_detail::ContactHold;
 using fge_detail::GripperPx;
 using fge_detail::LocalMaximum;
 using fge_detail::Near;
 using fge_detail::SimilarAngle;
 using fge_detail::Slice;
-using fge_detail::StableContacts;
 
 using fge_detail::kMaxContactChecksPerMap;
 
@@ -63,26 +64,39 @@ struct ContactGeometry {
   double tip_height_m = 0;
 };
 
-// Per map: best first, spatial NMS, contact check; keeps at most top_k.
-std::vector<Candidate> SelectInMap(std::vector<Candidate> peaks, const Scene& scene,
-                                   const ContactGeometry& geo, double angle_rad,
-                                   const FgeParams& params) {
+// One map's candidates that pass the contact check: firm ones, and (kept aside for when no map
+// has a firm one) those whose contacts are only stable (ContactHold).
+struct MapSelection {
+  std::vector<Candidate> firm;
+  std::vector<Candidate> stable;
+};
+
+// Per map: best first, spatial NMS, contact check; keeps at most top_k of each kind.
+MapSelection SelectInMap(std::vector<Candidate> peaks, const Scene& scene,
+                         const ContactGeometry& geo, double angle_rad, const FgeParams& params) {
   std::sort(peaks.begin(), peaks.end(), Better);
-  std::vector<Candidate> kept;
+  MapSelection out;
+  const auto near_one_of = [&](const std::vector<Candidate>& kept, const Candidate& c) {
+    return std::any_of(kept.begin(), kept.end(),
+                       [&](const Candidate& k) { return Near(c, k, params.nms_radius_px); });
+  };
   int checks = 0;
   for (const Candidate& c : peaks) {
-    if (static_cast<int>(kept.size()) >= params.top_k || checks >= kMaxContactChecksPerMap) break;
-    const bool suppressed = std::any_of(kept.begin(), kept.end(), [&](const Candidate& k) {
-      return Near(c, k, params.nms_radius_px);
-    });
-    if (suppressed) continue;
+    if (static_cast<int>(out.firm.size()) >= params.top_k || checks >= kMaxContactChecksPerMap) {
+      break;
+    }
+    if (near_one_of(out.firm, c)) continue;
     ++checks;
-    if (StableContacts(scene.height_m, c.u_px, c.v_px, angle_rad, geo.gripper, geo.px_per_m,
-                       geo.tip_height_m)) {
-      kept.push_back(c);
+    const ContactHold hold = CheckContacts(scene.height_m, c.u_px, c.v_px, angle_rad, geo.gripper,
+                                           geo.px_per_m, geo.tip_height_m);
+    if (hold == ContactHold::kFirm) {
+      out.firm.push_back(c);
+    } else if (hold == ContactHold::kStable && static_cast<int>(out.stable.size()) < params.top_k &&
+               !near_one_of(out.stable, c)) {
+      out.stable.push_back(c);
     }
   }
-  return kept;
+  return out;
 }
 
 std::vector<Candidate> RankGlobally(std::vector<Candidate> all, const FgeParams& params) {
@@ -142,7 +156,8 @@ std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, con
       fge_detail::SearchSlices(scene.height_m, scene.contact_allowed,
                                fge_detail::PxPerMetre(scene.floor, camera, 0), gripper, params);
   const std::vector<Slice>& slices = search.slices;
-  std::vector<Candidate> all;
+  std::vector<Candidate> firm;    // every map's firm candidates so far
+  std::vector<Candidate> stable;  // and those whose contacts are only stable
   std::vector<Candidate> ranked;
   // num_height_steps slices at a time, from the top down, until top_k grasps are found; the
   // grasps of a higher batch rank before those of a lower one.
@@ -166,13 +181,13 @@ std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, con
           peaks.push_back(
               {m.u_px, m.v_px, m.score, ai, static_cast<int>(first + si), static_cast<int>(b)});
         }
-        for (const Candidate& c :
-             SelectInMap(std::move(peaks), scene, geometry[si], angle, params)) {
-          all.push_back(c);
-        }
+        MapSelection selected = SelectInMap(std::move(peaks), scene, geometry[si], angle, params);
+        firm.insert(firm.end(), selected.firm.begin(), selected.firm.end());
+        stable.insert(stable.end(), selected.stable.begin(), selected.stable.end());
       }
     }
-    ranked = RankGlobally(all, params);
+    // Firm contacts first: stable-only ones are grasps only when no map has a firm one.
+    ranked = RankGlobally(firm.empty() ? stable : firm, params);
     if (static_cast<int>(ranked.size()) >= params.top_k) break;
   }
   std::vector<Grasp> grasps;

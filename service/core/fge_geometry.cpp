@@ -476,9 +476,11 @@ std::array<double, 4> QuaternionAboutZ(double angle_rad) {
 
 namespace {
 
-// See StableContacts.
+// See CheckContacts.
 constexpr double kContactFaceToleranceM = 0.002;
 constexpr double kMinContactPatchM = 0.005;
+// A firm contact: the finger rests on at least half its width (CheckContacts).
+constexpr double kFirmContactPatchFraction = 0.5;
 constexpr int kMinContactPatchPx = 2;
 
 // Number of lines (rows across the finger) touching the finger at the first contact, one side.
@@ -490,10 +492,9 @@ int PatchRows(const std::vector<int>& first_contact, int tolerance_px) {
                                         [&](int a) { return a >= best - tolerance_px; }));
 }
 
-}  // namespace
-
-bool StableContacts(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
-                    const GripperPx& gripper, double px_per_m, double tip_height_m) {
+// The smaller of the two fingers' contact patches, in lines (CheckContacts).
+int ContactPatchLines(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
+                      const GripperPx& gripper, double px_per_m, double tip_height_m) {
   const int half_len = static_cast<int>(std::floor(gripper.opening_px / 2));
   const int half_width = static_cast<int>(std::floor(gripper.finger_width_px / 2));
   const double cs = std::cos(angle_rad);
@@ -537,9 +538,22 @@ bool StableContacts(const cv::Mat1f& height_m, double u_px, double v_px, double 
   }
   const int tolerance_px =
       std::max(1, static_cast<int>(std::floor(kContactFaceToleranceM * px_per_m)));
-  const int min_rows =
+  return std::min(PatchRows(right, tolerance_px), PatchRows(left, tolerance_px));
+}
+
+}  // namespace
+
+ContactHold CheckContacts(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
+                          const GripperPx& gripper, double px_per_m, double tip_height_m) {
+  const int lines =
+      ContactPatchLines(height_m, u_px, v_px, angle_rad, gripper, px_per_m, tip_height_m);
+  const int stable_lines =
       std::max(kMinContactPatchPx, static_cast<int>(std::ceil(kMinContactPatchM * px_per_m)));
-  return PatchRows(right, tolerance_px) >= min_rows && PatchRows(left, tolerance_px) >= min_rows;
+  const int firm_lines =
+      std::max(stable_lines,
+               static_cast<int>(std::ceil(kFirmContactPatchFraction * gripper.finger_width_px)));
+  if (lines >= firm_lines) return ContactHold::kFirm;
+  return lines >= stable_lines ? ContactHold::kStable : ContactHold::kNone;
 }
 
 }  // namespace softgrasp::core::fge_detail

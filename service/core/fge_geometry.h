@@ -180,9 +180,13 @@ bool SimilarAngle(const C& a, const C& b, int num_angles) {
 
 /// The contact check (docs/fge.md, "Contact check"): along every line of the closing region
 /// parallel to the closing axis, the outermost surface point above tip_height_m on each side is
-/// where that line meets a finger. Lines within 2 mm of the first contact form the patch; each
-/// finger needs a patch of 5 mm (and >= 2 px).
-bool StableContacts(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
-                    const GripperPx& gripper, double px_per_m, double tip_height_m);
+/// where that line meets a finger. Lines within 2 mm of the first contact form the patch.
+/// kStable: each finger's patch is 5 mm (and >= 2 px) long; kFirm: it also covers at least half
+/// the finger's width (a face within ~10 deg of the finger pad at typical scales, not an
+/// object's end or corner). Planners take firm grasps and fall back to stable ones only when no
+/// firm one is found.
+enum class ContactHold { kNone, kStable, kFirm };
+ContactHold CheckContacts(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
+                          const GripperPx& gripper, double px_per_m, double tip_height_m);
 
 }  // namespace softgrasp::core::fge_detail

@@ -13,12 +13,13 @@ namespace softgrasp::core {
 namespace {
 
 using fge_detail::AngleOf;
+using fge_detail::CheckContacts;
+using fge_detail::ContactHold;
 using fge_detail::GripperPx;
 using fge_detail::kMaxContactChecksPerMap;
 using fge_detail::Near;
 using fge_detail::SimilarAngle;
 using fge_detail::Slice;
-using fge_detail::StableContacts;
 
 void CheckParams(const Camera& camera, const Gripper& gripper, const StiffnessFgeParams& params) {
   fge_detail::CheckInputs(camera, gripper, params.fge);
@@ -132,7 +133,9 @@ Grasp MakeGrasp(const Candidate& c, const SliceData& sd, const Scene& scene, con
 // Per map (angle, slice): best key first, NMS, contact check, at most top_k kept and
 // kMaxContactChecksPerMap checks; then the maps' grasps ranked together with NMS across similar
 // angles. Popping all maps' candidates in one key order gives exactly that while checking only
-// the candidates that can still make the top_k.
+// the candidates that can still make the top_k. Only firm contacts count (ContactHold); grasps
+// whose contacts are only stable are kept aside, ranked the same way, and returned when no firm
+// one is found.
 std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<SliceData>& slices,
                                 const Scene& scene, const Camera& camera, const Gripper& gripper,
                                 const FgeParams& fp) {
@@ -140,12 +143,25 @@ std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<Sl
     int checks = 0;
     std::vector<Candidate> kept;
   };
+  struct Ranked {
+    std::vector<Candidate> kept;
+    std::vector<Grasp> grasps;
+    // Adds c unless a kept grasp is near with a similar angle.
+    void Add(const Candidate& c, const SliceData& sd, const Scene& scene, const Camera& camera,
+             const Gripper& gripper, const FgeParams& fp) {
+      const bool suppressed = std::any_of(kept.begin(), kept.end(), [&](const Candidate& k) {
+        return Near(c, k, fp.nms_radius_px) && SimilarAngle(c, k, fp.num_angles);
+      });
+      if (suppressed) return;
+      kept.push_back(c);
+      grasps.push_back(MakeGrasp(c, sd, scene, camera, gripper, fp));
+    }
+  };
   std::vector<MapState> maps(static_cast<std::size_t>(fp.num_angles) * slices.size());
   const auto worse = [](const Candidate& a, const Candidate& b) { return Better(b, a); };
   std::make_heap(all.begin(), all.end(), worse);
-  std::vector<Grasp> grasps;
-  std::vector<Candidate> kept;
-  for (auto end = all.end(); end != all.begin() && static_cast<int>(kept.size()) < fp.top_k;) {
+  Ranked firm, stable;
+  for (auto end = all.end(); end != all.begin() && static_cast<int>(firm.kept.size()) < fp.top_k;) {
     std::pop_heap(all.begin(), end, worse);
     --end;
     const Candidate& c = *end;
@@ -160,19 +176,17 @@ std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<Sl
     if (near_in_map) continue;
     ++map.checks;
     const SliceData& sd = slices[slice_pos];
-    if (!StableContacts(scene.height_m, c.u_px, c.v_px, AngleOf(c.angle_index, fp.num_angles),
-                        sd.gripper, sd.px_per_m, sd.slice.tip_height_m)) {
-      continue;
+    const ContactHold hold =
+        CheckContacts(scene.height_m, c.u_px, c.v_px, AngleOf(c.angle_index, fp.num_angles),
+                      sd.gripper, sd.px_per_m, sd.slice.tip_height_m);
+    if (hold == ContactHold::kFirm) {
+      map.kept.push_back(c);
+      firm.Add(c, sd, scene, camera, gripper, fp);
+    } else if (hold == ContactHold::kStable && static_cast<int>(stable.kept.size()) < fp.top_k) {
+      stable.Add(c, sd, scene, camera, gripper, fp);
     }
-    map.kept.push_back(c);
-    const bool suppressed = std::any_of(kept.begin(), kept.end(), [&](const Candidate& k) {
-      return Near(c, k, fp.nms_radius_px) && SimilarAngle(c, k, fp.num_angles);
-    });
-    if (suppressed) continue;
-    kept.push_back(c);
-    grasps.push_back(MakeGrasp(c, sd, scene, camera, gripper, fp));
   }
-  return grasps;
+  return firm.grasps.empty() ? stable.grasps : firm.grasps;
 }
 
 }  // namespace

@@ -110,6 +110,23 @@ TEST(DetectGraspsFge, SlimBoxIsGraspedAcrossItsShortSideAtItsMiddle) {
   }
 }
 
+// With 4 angles (0, 45, 90, 135 deg) a box turned by 15 deg meets the fingers at 15 deg: its
+// contacts are stable, not firm (docs/fge.md, "Contact check"). It is still grasped alone, but
+// beside a box square to the fingers every grasp is on that one.
+TEST(DetectGraspsFge, FirmContactsRankFirstAndStableOnesAreTheFallback) {
+  FgeParams params;
+  params.num_angles = 4;
+  SceneSpec spec;
+  spec.boxes = {Box{-0.05, 0.0, 0.030, 0.080, 0.040, 15 * kPi / 180, 1}};
+  const Detection alone = Detect(spec, params);
+  ASSERT_FALSE(alone.grasps.empty());
+  EXPECT_EQ(IdAtCenter(alone, alone.grasps.front()), 1);
+  spec.boxes.push_back(Box{0.05, 0.0, 0.030, 0.080, 0.040, 0.0, 2});
+  const Detection d = Detect(spec, params);
+  ASSERT_FALSE(d.grasps.empty());
+  for (const Grasp& g : d.grasps) EXPECT_EQ(IdAtCenter(d, g), 2);
+}
+
 TEST(DetectGraspsFge, NoGraspSqueezesTwoBoxesAcrossTheirSeam) {
   SceneSpec spec;  // together 60 mm along x: wider than the 50 mm opening; 40 mm along y
   spec.boxes = {Box{-0.015, 0.0, 0.030, 0.040, 0.040, 0.0, 1},
@@ -445,6 +462,39 @@ TEST(DetectGraspsFge, FilledDropoutsAlongAnEdgeAreNoSeam) {
 }
 
 TEST(DetectGraspsFge, FlatTableHasNoGrasp) { EXPECT_TRUE(Detect(SceneSpec{}).grasps.empty()); }
+
+// The contact check (docs/fge.md) on a plateau 40 mm across between fingers 60 mm apart that
+// close along u, 1 px = 1 mm, with 15 mm wide fingers.
+cv::Mat1f Plateau(double slant_deg, int first_row) {
+  cv::Mat1f height_m(200, 200, 0.0f);
+  const double t = slant_deg * CV_PI / 180;
+  for (int v = first_row; v < height_m.rows; ++v) {
+    for (int u = 0; u < height_m.cols; ++u) {
+      if (std::abs((u - 100) * std::cos(t) + (v - 100) * std::sin(t)) <= 20) height_m(v, u) = 0.03f;
+    }
+  }
+  return height_m;
+}
+
+fge_detail::ContactHold Hold(const cv::Mat1f& height_m) {
+  const fge_detail::GripperPx fingers{60, 15, 8};  // lines b = -7 ... 7 across the fingers
+  return fge_detail::CheckContacts(height_m, 100, 100, 0.0, fingers, 1000.0, 0.01);
+}
+
+TEST(ContactCheck, FirmWhenEachFingerRestsOnHalfItsWidth) {
+  using enum fge_detail::ContactHold;
+  EXPECT_EQ(Hold(Plateau(0, 0)), kFirm);
+  // A slanted face: of the 15 lines, those meeting it within 2 mm of the first contact are all
+  // 15 at 10 deg, 6 at 25 deg (stable: >= 5 mm; the contact sits near the face's corner), 4 at
+  // 35 deg.
+  EXPECT_EQ(Hold(Plateau(10, 0)), kFirm);
+  EXPECT_EQ(Hold(Plateau(25, 0)), kStable);
+  EXPECT_EQ(Hold(Plateau(35, 0)), kNone);
+  // The plateau's end under the fingers: 8 of the 15 lines reach it, then 6.
+  EXPECT_EQ(Hold(Plateau(0, 100)), kFirm);
+  EXPECT_EQ(Hold(Plateau(0, 102)), kStable);
+  EXPECT_EQ(Hold(cv::Mat1f(200, 200, 0.0f)), kNone);
+}
 
 TEST(DetectGraspsFge, RejectsBadParameters) {
   const Detection d = Detect(SceneSpec{});
