@@ -146,16 +146,15 @@ std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<Sl
   struct Ranked {
     std::vector<Candidate> kept;
     std::vector<Grasp> grasps;
-    // Adds c unless a kept grasp is near with a similar angle.
-    void Add(const Candidate& c, const SliceData& sd, const Scene& scene, const Camera& camera,
-             const Gripper& gripper, const FgeParams& fp) {
-      const bool suppressed = std::any_of(kept.begin(), kept.end(), [&](const Candidate& k) {
-        return Near(c, k, fp.nms_radius_px) && SimilarAngle(c, k, fp.num_angles);
-      });
-      if (suppressed) return;
-      kept.push_back(c);
-      grasps.push_back(MakeGrasp(c, sd, scene, camera, gripper, fp));
-    }
+  };
+  // Adds c to `to` unless a kept grasp there is near with a similar angle.
+  const auto add = [&](Ranked& to, const Candidate& c, const SliceData& sd) {
+    const bool suppressed = std::any_of(to.kept.begin(), to.kept.end(), [&](const Candidate& k) {
+      return Near(c, k, fp.nms_radius_px) && SimilarAngle(c, k, fp.num_angles);
+    });
+    if (suppressed) return;
+    to.kept.push_back(c);
+    to.grasps.push_back(MakeGrasp(c, sd, scene, camera, gripper, fp));
   };
   std::vector<MapState> maps(static_cast<std::size_t>(fp.num_angles) * slices.size());
   const auto worse = [](const Candidate& a, const Candidate& b) { return Better(b, a); };
@@ -181,9 +180,9 @@ std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<Sl
                       sd.gripper, sd.px_per_m, sd.slice.tip_height_m);
     if (hold == ContactHold::kFirm) {
       map.kept.push_back(c);
-      firm.Add(c, sd, scene, camera, gripper, fp);
+      add(firm, c, sd);
     } else if (hold == ContactHold::kStable && static_cast<int>(stable.kept.size()) < fp.top_k) {
-      stable.Add(c, sd, scene, camera, gripper, fp);
+      add(stable, c, sd);
     }
   }
   return firm.grasps.empty() ? stable.grasps : firm.grasps;
