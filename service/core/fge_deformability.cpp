@@ -23,6 +23,9 @@ namespace {
 
 // The top of an instance: this quantile of its heights (a few flying pixels do not set it).
 constexpr double kTopQuantile = 0.98;
+// SoftNeighbourInReach: added to the gripper's reach for the fast path's pooled work pixels
+// (up to 4 image pixels) and the 3-D finger check's margin.
+constexpr double kReachMarginM = 0.01;
 
 void Require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("DeformabilityParams: " + what);
@@ -250,15 +253,16 @@ struct TargetView {
   fge_detail::FreeSpace* free_space = nullptr;
 };
 
-TargetView ViewForTarget(const Scene& scene, const ObjectMaps& objects, int target_id,
-                         const cv::Mat1b& contact, const DeformabilityParams& params, bool press,
-                         SharedSearch& shared) {
+TargetView ViewForTarget(const Scene& scene, const Camera& camera, const Gripper& gripper,
+                         const ObjectMaps& objects, int target_id, const cv::Mat1b& contact,
+                         const DeformabilityParams& params, bool press, SharedSearch& shared) {
   TargetView out{scene, {}, false, nullptr};
   out.scene.contact_allowed = contact;
   const cv::Mat1b own = objects.labels == target_id;
   const bool soft_target = cv::countNonZero(shared.soft() & own) > 0;
   out.soft = soft_target ? shared.soft() & ~own : shared.soft();
-  out.pressable = params.max_press_depth_m > 0 && cv::countNonZero(out.soft) > 0;
+  out.pressable = params.max_press_depth_m > 0 &&
+                  SoftNeighbourInReach(scene, camera, gripper, contact, out.soft);
   if (!press) {
     out.free_space = &shared.AsSeen();
   } else if (out.pressable && soft_target) {
@@ -450,6 +454,59 @@ int PlanOpenings(const Scene& scene, const TargetView& view, bool pressed, const
 
 }  // namespace
 
+bool SoftNeighbourInReach(const Scene& scene, const Camera& camera, const Gripper& gripper,
+                          const cv::Mat1b& contact, const cv::Mat1b& soft) {
+  if (cv::countNonZero(soft) == 0) return false;
+  const cv::Mat1f& depth = scene.depth_filled_m;
+  const cv::Rect box = cv::boundingRect(contact);
+  if (box.empty()) return false;
+  if (depth.size() != soft.size() || contact.size() != soft.size()) return true;
+  // The contact pixels' camera x-y (metres at their own depth).
+  double x_lo = std::numeric_limits<double>::infinity(), x_hi = -x_lo;
+  double y_lo = x_lo, y_hi = -x_lo;
+  for (int v = box.y; v < box.y + box.height; ++v) {
+    const unsigned char* c_row = contact.ptr<unsigned char>(v);
+    const float* z_row = depth.ptr<float>(v);
+    for (int u = box.x; u < box.x + box.width; ++u) {
+      const double z = z_row[u];
+      if (c_row[u] == 0 || !(z > 0) || !std::isfinite(z)) continue;
+      const double x = (u - camera.cx) * z / camera.fx, y = (v - camera.cy) * z / camera.fy;
+      x_lo = std::min(x_lo, x), x_hi = std::max(x_hi, x);
+      y_lo = std::min(y_lo, y), y_hi = std::max(y_hi, y);
+    }
+  }
+  double z_near = 0, z_far = 0;
+  cv::minMaxIdx(depth, &z_near, &z_far);
+  if (!(x_lo <= x_hi) || !(z_near > 0) || !std::isfinite(z_far)) return true;
+  // Everything a grasp on a contact pixel can touch (closing region, fingers, palm, the fast
+  // path's pooled work pixels) lies within this distance of it in x-y.
+  const double reach_m =
+      std::hypot(gripper.opening_stroke_m + gripper.finger_thickness_m, gripper.finger_width_m) +
+      kReachMarginM;
+  // u = cx + fx x / z is monotone in x and in 1 / z: the box's corners at the nearest and the
+  // farthest depth bound where any point of it is seen.
+  double u_lo = std::numeric_limits<double>::infinity(), u_hi = -u_lo, v_lo = u_lo, v_hi = -u_lo;
+  for (const double z : {z_near, z_far}) {
+    for (const double x : {x_lo - reach_m, x_hi + reach_m}) {
+      const double u = camera.cx + camera.fx * x / z;
+      u_lo = std::min(u_lo, u), u_hi = std::max(u_hi, u);
+    }
+    for (const double y : {y_lo - reach_m, y_hi + reach_m}) {
+      const double v = camera.cy + camera.fy * y / z;
+      v_lo = std::min(v_lo, v), v_hi = std::max(v_hi, v);
+    }
+  }
+  const auto clamp_to = [](double x, int size) {
+    return static_cast<int>(std::clamp(x, 0.0, static_cast<double>(size)));
+  };
+  const int u0 = clamp_to(std::floor(u_lo) - 1, soft.cols),
+            u1 = clamp_to(std::ceil(u_hi) + 2, soft.cols);
+  const int v0 = clamp_to(std::floor(v_lo) - 1, soft.rows),
+            v1 = clamp_to(std::ceil(v_hi) + 2, soft.rows);
+  if (u0 >= u1 || v0 >= v1) return false;
+  return cv::countNonZero(soft(cv::Rect(u0, v0, u1 - u0, v1 - v0))) > 0;
+}
+
 DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& camera,
                                               const ObjectMaps& objects, const Gripper& gripper,
                                               const DeformabilityParams& params) {
@@ -518,7 +575,8 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
       // the segmentation split off, and pressing into it lands the finger on the target).
       for (const bool press : {false, true}) {
         if (cv::countNonZero(contact) == 0) break;
-        const TargetView view = ViewForTarget(scene, objects, id, contact, params, press, shared);
+        const TargetView view =
+            ViewForTarget(scene, camera, gripper, objects, id, contact, params, press, shared);
         if (press && !view.pressable) break;
         const int found = PlanOpenings(scene, view, press, camera, stiffness, gripper, sp, params,
                                        id, objects.labels, &best_deformability, &result);

@@ -71,7 +71,8 @@ struct DeformabilityParams {
   double min_part_contrast = 0.3;
   /// Neighbour pixels softer than this (deformability) are not collisions up to
   /// max_press_depth_m: a finger may press them aside, but only when the target gives no grasp
-  /// that touches nothing (all openings tried without pressing first). > 1 disables pushing.
+  /// that touches nothing (all openings tried without pressing first) and a soft neighbour is
+  /// within the gripper's reach of the target (SoftNeighbourInReach). > 1 disables pushing.
   double soft_obstacle_threshold = 0.5;
   double max_press_depth_m = 0.02;
   /// kLeastDeformable: instances whose mean deformability is within this of the least are ties.
@@ -114,6 +115,15 @@ struct DeformabilityResult {
 /// scene.contact_allowed. Top = the 98th percentile of the instance's heights.
 std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
                               const DeformabilityParams& params);
+
+/// Whether a pixel set in `soft` can lie under the gripper of some grasp whose closing region
+/// holds a pixel of `contact`: soft pixels are looked for in the image box where every point
+/// within the gripper's reach (stroke + finger thickness along the closing axis, finger width
+/// across, plus a margin) of the contact pixels' camera x-y projects at any depth between the
+/// scene's nearest and farthest surface (scene.depth_filled_m; without it, anywhere in the
+/// image). The deformability planner presses soft neighbours aside only when this holds.
+bool SoftNeighbourInReach(const Scene& scene, const Camera& camera, const Gripper& gripper,
+                          const cv::Mat1b& contact, const cv::Mat1b& soft);
 
 /// Plans on the targets of OrderTargets (at most max_targets) until one gives grasps. With
 /// kLeastDeformable (and no target_id) it goes on while a later target's touchable part is less

@@ -492,9 +492,10 @@ int PatchRows(const std::vector<int>& first_contact, int tolerance_px) {
                                         [&](int a) { return a >= best - tolerance_px; }));
 }
 
-// The smaller of the two fingers' contact patches, in lines (CheckContacts).
+// The smaller of the two fingers' contact patches, in lines (CheckContacts); once the first
+// finger's patch has fewer than `enough` lines, that patch (the other finger is not looked at).
 int ContactPatchLines(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
-                      const GripperPx& gripper, double px_per_m, double tip_height_m) {
+                      const GripperPx& gripper, double px_per_m, double tip_height_m, int enough) {
   const int half_len = static_cast<int>(std::floor(gripper.opening_px / 2));
   const int half_width = static_cast<int>(std::floor(gripper.finger_width_px / 2));
   const double cs = std::cos(angle_rad);
@@ -518,37 +519,45 @@ int ContactPatchLines(const cv::Mat1f& height_m, double u_px, double v_px, doubl
     const auto x = static_cast<std::uint64_t>(u >> 32), y = static_cast<std::uint64_t>(v >> 32);
     return x < cols && y < rows && heights[y * row_step + x] > tip;
   };
+  // Line b starts (a = -half_len) here.
+  const auto start = [&](int b) {
+    return std::pair{u_px - half_len * cs - b * sn + 0.5, v_px - half_len * sn + b * cs + 0.5};
+  };
+  // Each finger meets the line's outermost surface pixel on its side: walk in from each end and
+  // stop at the first hit (the gap between finger and object, not the whole line).
   for (int b = -half_width; b <= half_width; ++b) {
-    // Each finger meets the line's outermost surface pixel on its side: walk in from each end
-    // and stop at the first hit (the gap between finger and object, not the whole line).
-    const double u_left = u_px - half_len * cs - b * sn + 0.5;
-    const double v_left = v_px - half_len * sn + b * cs + 0.5;
+    const auto [u_left, v_left] = start(b);
     int a_right = half_len;
     std::int64_t u = fixed(u_left + 2 * half_len * cs), v = fixed(v_left + 2 * half_len * sn);
     for (; a_right >= -half_len && !above_tips(u, v); --a_right, u -= step_u, v -= step_v) {
     }
-    if (a_right < -half_len) continue;  // nothing on this line
-    int a_left = -half_len;
-    u = fixed(u_left);
-    v = fixed(v_left);
-    for (; !above_tips(u, v) && a_left < a_right; ++a_left, u += step_u, v += step_v) {
-    }
-    right[static_cast<std::size_t>(b + half_width)] = a_right;
-    left[static_cast<std::size_t>(b + half_width)] = -a_left;  // -a so both sides use "max"
+    if (a_right >= -half_len) right[static_cast<std::size_t>(b + half_width)] = a_right;
   }
   const int tolerance_px =
       std::max(1, static_cast<int>(std::floor(kContactFaceToleranceM * px_per_m)));
-  return std::min(PatchRows(right, tolerance_px), PatchRows(left, tolerance_px));
+  const int right_lines = PatchRows(right, tolerance_px);
+  if (right_lines < enough) return right_lines;
+  for (int b = -half_width; b <= half_width; ++b) {
+    const int a_right = right[static_cast<std::size_t>(b + half_width)];
+    if (a_right == none) continue;  // nothing on this line
+    const auto [u_left, v_left] = start(b);
+    int a_left = -half_len;
+    std::int64_t u = fixed(u_left), v = fixed(v_left);
+    for (; !above_tips(u, v) && a_left < a_right; ++a_left, u += step_u, v += step_v) {
+    }
+    left[static_cast<std::size_t>(b + half_width)] = -a_left;  // -a so both sides use "max"
+  }
+  return std::min(right_lines, PatchRows(left, tolerance_px));
 }
 
 }  // namespace
 
 ContactHold CheckContacts(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
                           const GripperPx& gripper, double px_per_m, double tip_height_m) {
-  const int lines =
-      ContactPatchLines(height_m, u_px, v_px, angle_rad, gripper, px_per_m, tip_height_m);
   const int stable_lines =
       std::max(kMinContactPatchPx, static_cast<int>(std::ceil(kMinContactPatchM * px_per_m)));
+  const int lines = ContactPatchLines(height_m, u_px, v_px, angle_rad, gripper, px_per_m,
+                                      tip_height_m, stable_lines);
   const int firm_lines =
       std::max(stable_lines,
                static_cast<int>(std::ceil(kFirmContactPatchFraction * gripper.finger_width_px)));

@@ -520,6 +520,42 @@ TEST(DetectGraspsDeformability, AClickCutsAMergedTargetToTheClickedObject) {
   EXPECT_EQ(BoxAtCenter(s, off.grasps.front().grasp), 2);
 }
 
+// A 40 mm box target at x = 50 mm; soft boxes 30 mm beside it (y), 180 mm away (x = -200 mm),
+// and a 300 mm tall one 40 mm beside it (x = 130 mm) whose top, near the camera, is seen far off.
+TEST(SoftNeighbourInReach, LooksWhereTheGripperCanReachAtEveryDepth) {
+  SceneSpec spec;
+  spec.boxes = {Box{0.05, 0.0, 0.04, 0.04, 0.04, 0.0, 1}, Box{0.05, 0.07, 0.04, 0.04, 0.04, 0.0, 2},
+                Box{-0.20, 0.0, 0.04, 0.04, 0.04, 0.0, 3},
+                Box{0.13, 0.0, 0.04, 0.04, 0.30, 0.0, 4}};
+  const Prepared s = Make(spec, {{1, 1}, {2, 2}, {3, 3}, {4, 4}},
+                          {{1, 0.1f}, {2, 0.9f}, {3, 0.9f}, {4, 0.9f}}, {0.9f, 0.9f, 0.9f, 0.9f});
+  const Camera& camera = s.synth.camera;
+  const cv::Mat1b target = s.objects.labels == 1;
+  const cv::Mat1b beside = s.objects.labels == 2;
+  const cv::Mat1b far = s.objects.labels == 3;
+  const cv::Mat1b tall_top = (s.objects.labels == 4) & (s.scene.height_m > 0.29f);
+  ASSERT_GT(cv::countNonZero(tall_top), 0);
+  const Gripper gripper;
+  EXPECT_TRUE(SoftNeighbourInReach(s.scene, camera, gripper, target, beside));
+  EXPECT_FALSE(SoftNeighbourInReach(s.scene, camera, gripper, target, far));
+  // The tall box's top lies 40 mm from the target in x-y (within the 58 mm the gripper spans
+  // from a contact pixel), but further from it in the image than the gripper reaches at the
+  // target's depth (0.56 m).
+  const double reach_px_at_target = 0.07 * camera.fx / 0.56;
+  const cv::Rect target_box = cv::boundingRect(target);
+  const cv::Rect top_box = cv::boundingRect(tall_top);
+  ASSERT_GT(top_box.x - (target_box.x + target_box.width), reach_px_at_target);
+  EXPECT_TRUE(SoftNeighbourInReach(s.scene, camera, gripper, target, tall_top));
+  // A wider stroke reaches the far box too.
+  Gripper wide;
+  wide.opening_stroke_m = 0.25;
+  EXPECT_TRUE(SoftNeighbourInReach(s.scene, camera, wide, target, far));
+  // Nothing soft, or no contact: nothing to press.
+  const cv::Mat1b none(target.size(), static_cast<unsigned char>(0));
+  EXPECT_FALSE(SoftNeighbourInReach(s.scene, camera, gripper, target, none));
+  EXPECT_FALSE(SoftNeighbourInReach(s.scene, camera, gripper, none, beside));
+}
+
 TEST(DetectGraspsDeformability, BadInputThrows) {
   const Prepared s =
       Make(TallSoftLowHard(), {{1, 1}, {2, 2}}, {{1, 0.1f}, {2, 0.1f}}, {0.9f, 0.9f});

@@ -113,8 +113,10 @@ struct Models {
 
 struct Plan {
   std::vector<core::Grasp> grasps;
-  double detect_ms = 0;      ///< the engine's whole call: preprocessing, models, planner
-  bool target_found = true;  ///< a named target matched an instance (deformability)
+  double detect_ms = 0;        ///< the engine's whole call: preprocessing, models, planner
+  double segmentation_ms = 0;  ///< of which segmenting and describing instances
+  double planner_ms = 0;       ///< of which the grasp planner itself
+  bool target_found = true;    ///< a named target matched an instance (deformability)
   std::optional<engine::DeformabilityRecord> best;  ///< the best grasp's (deformability)
   /// A named target planned on a model instance: IoU of that instance with the true mask.
   std::optional<double> target_iou;
@@ -178,6 +180,8 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
   for (const engine::PlannedGrasp& g : plan.value().grasps) out.grasps.push_back(g.grasp);
   if (!plan.value().grasps.empty()) out.best = plan.value().grasps.front().deformability;
   out.detect_ms = plan.value().timing.total_ms;
+  out.segmentation_ms = plan.value().timing.segmentation_ms;
+  out.planner_ms = plan.value().timing.detect_ms;
   return out;
 }
 
@@ -304,6 +308,8 @@ void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& ra
     if (per_grasp && plan.target_iou) {
       s->per_grasp.push_back({{"scene", s->success.size() - 1},
                               {"outcome", "no_grasp"},
+                              {"detect_ms", plan.detect_ms},
+                              {"planner_ms", plan.planner_ms},
                               {"target_iou", *plan.target_iou}});
     }
     return;
@@ -326,7 +332,10 @@ void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& ra
                             {"opening_m", g.opening_m},
                             {"center_px", {g.center_u_px, g.center_v_px}},
                             {"contact_height_m", g.contact_height_m},
-                            {"deformation_rate", e.deformation_rate}});
+                            {"deformation_rate", e.deformation_rate},
+                            {"detect_ms", plan.detect_ms},
+                            {"segmentation_ms", plan.segmentation_ms},
+                            {"planner_ms", plan.planner_ms}});
     if (plan.best) {
       s->per_grasp.back()["target_by"] = plan.best->target_by;
       s->per_grasp.back()["opening_fraction"] = plan.best->opening_fraction;
