@@ -530,7 +530,10 @@ struct ChildRun {
 };
 
 // Forks the child, kills it after `delay`, and collects what it reported.
-ChildRun RunAndKill(const std::string& dir, int round, std::chrono::microseconds delay) {
+// Kills the child after `delay`, or (until_compaction) as soon as it reports its first completed
+// compaction, whichever comes first.
+ChildRun RunAndKill(const std::string& dir, int round, std::chrono::microseconds delay,
+                    bool until_compaction = false) {
   ChildRun run;
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) {
@@ -563,6 +566,7 @@ ChildRun RunAndKill(const std::string& dir, int round, std::chrono::microseconds
       const ssize_t n = ::read(fds[0], buffer, sizeof buffer);
       if (n > 0) reported.append(buffer, static_cast<std::size_t>(n));
       if (n == 0) break;  // the child is gone already
+      if (until_compaction && reported.find("\nC ") != std::string::npos) break;
     }
   }
   ::kill(pid, SIGKILL);
@@ -621,19 +625,31 @@ TEST_F(JournalTest, KillNineAtRandomPointsLosesNothingAcknowledged) {
 
   constexpr int kKills = 40;
   std::mt19937 rng(4242);
-  std::uniform_int_distribution<int> delay_us(0, 60000);
+  // Round 0 runs until its first compaction is done: three times how long that took here (a
+  // sanitizer build or a slow disk is several times slower), at least 60 ms, is the window the
+  // other rounds' kill points are drawn from, so they land before, in and after compactions.
+  std::int64_t window_us = 60000;
   int killed_in_compaction = 0;
   int temp_files_found = 0;
   int compactions_completed = 0;
   std::int64_t acknowledged_records = 0;
   const auto test_start = std::chrono::steady_clock::now();
   for (int round = 0; round < kKills; ++round) {
-    const auto delay = std::chrono::microseconds(delay_us(rng));
+    const bool calibrate = round == 0;
+    const auto delay = std::chrono::microseconds(
+        calibrate ? 20'000'000 : std::uniform_int_distribution<std::int64_t>(0, window_us)(rng));
     SCOPED_TRACE("round " + std::to_string(round) + ", killed after " +
                  std::to_string(delay.count()) + " us");
-    const ChildRun run = RunAndKill(dir_.string(), round, delay);
+    const auto round_start = std::chrono::steady_clock::now();
+    const ChildRun run = RunAndKill(dir_.string(), round, delay, calibrate);
     ASSERT_TRUE(WIFSIGNALED(run.status) && WTERMSIG(run.status) == SIGKILL)
         << "the child ended on its own, status " << run.status;
+    if (calibrate) {
+      ASSERT_TRUE(run.completed_threshold) << "no compaction completed within 20 s";
+      const auto took = std::chrono::duration_cast<std::chrono::microseconds>(
+          std::chrono::steady_clock::now() - round_start);
+      window_us = std::max<std::int64_t>(window_us, 3 * took.count());
+    }
     killed_in_compaction += run.killed_in_compaction ? 1 : 0;
     compactions_completed += run.completed_threshold ? 1 : 0;
     acknowledged_records += static_cast<std::int64_t>(run.acknowledged.size());
@@ -695,9 +711,10 @@ TEST_F(JournalTest, KillNineAtRandomPointsLosesNothingAcknowledged) {
   }
   const double elapsed_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - test_start).count();
-  std::cout << kKills << " kills in " << elapsed_s << " s: " << killed_in_compaction
-            << " during a compaction, " << temp_files_found << " left a temporary file, "
-            << compactions_completed << " runs completed a compaction, " << acknowledged_records
+  std::cout << kKills << " kills in " << elapsed_s << " s (window " << window_us / 1000
+            << " ms): " << killed_in_compaction << " during a compaction, " << temp_files_found
+            << " left a temporary file, " << compactions_completed
+            << " runs completed a compaction, " << acknowledged_records
             << " records acknowledged\n";
   // The kills did land inside compactions (each takes most of a loop: it writes and fsyncs a
   // file), and the children did make progress.
