@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "service/segmentation/fuse.h"
 #include "service/segmentation/pcl_segmenter.h"
 
 namespace softgrasp::engine {
@@ -21,7 +22,7 @@ double MillisecondsSince(Clock::time_point start) {
 core::Result<segmentation::Method> ResolveSegmentationMethod(
     std::optional<segmentation::Method> requested, bool model_loaded, const char* field) {
   if (!requested) return model_loaded ? segmentation::Method::kModel : segmentation::Method::kPcl;
-  if (*requested == segmentation::Method::kModel && !model_loaded) {
+  if (*requested != segmentation::Method::kPcl && !model_loaded) {
     return core::MakeError(core::ErrorCode::kUnavailable,
                            "no segmentation model is loaded: start the server with "
                            "--segmentation-model FILE (the shipped model is "
@@ -38,7 +39,7 @@ core::Result<SceneInstances> SegmentInstances(const core::Scene& scene, const co
   const auto start = Clock::now();
   SceneInstances out;
   out.method = method;
-  if (method == segmentation::Method::kModel) {
+  if (method != segmentation::Method::kPcl) {
     if (model == nullptr) {
       return core::MakeError(core::ErrorCode::kUnavailable, "no segmentation model is loaded",
                              "method");
@@ -47,10 +48,13 @@ core::Result<SceneInstances> SegmentInstances(const core::Scene& scene, const co
     out.masks = std::move(result.instances);
     out.deformability = std::move(result.deformability);
     out.foreground = std::move(result.foreground);
-  } else {
+  }
+  if (method != segmentation::Method::kModel) {
     auto masks = segmentation::SegmentPcl(scene, camera);
     if (!masks.ok()) return masks.error();
-    out.masks = std::move(masks).value();
+    out.masks = method == segmentation::Method::kPcl
+                    ? std::move(masks).value()
+                    : segmentation::FuseInstances(out.masks, masks.value());
   }
   out.milliseconds = MillisecondsSince(start);
   return out;

@@ -20,7 +20,7 @@ namespace softgrasp::engine {
 using SegmentationModelPtr = std::shared_ptr<const models::SegmentationModel>;
 
 /// The segmenter for a request: `requested`, or the model when one is loaded, else pcl.
-/// kUnavailable (503, field `field`) when the model is asked for and none is loaded.
+/// kUnavailable (503, field `field`) when the model or fused is asked for and no model is loaded.
 core::Result<segmentation::Method> ResolveSegmentationMethod(
     std::optional<segmentation::Method> requested, bool model_loaded, const char* field);
 
@@ -28,7 +28,8 @@ core::Result<segmentation::Method> ResolveSegmentationMethod(
 struct SceneInstances {
   segmentation::Method method = segmentation::Method::kPcl;
   segmentation::InstanceMasks masks;
-  /// [0, 1] (0 rigid ... 1 very soft), the scene's size; empty with pcl. Never a stiffness.
+  /// [0, 1] (0 rigid ... 1 very soft), the scene's size (model and fused); empty with pcl.
+  /// Never a stiffness.
   cv::Mat1f deformability;
   /// Model foreground probability [0, 1]; empty with pcl.
   cv::Mat1f foreground;
@@ -36,8 +37,8 @@ struct SceneInstances {
 };
 
 /// Runs `method` on a preprocessed scene (core::Preprocess) seen by `camera`. `model` must be
-/// non-null for Method::kModel. Errors: the PCL segmenter's (a scene and camera of different
-/// sizes); a scene with no objects gives zero instances.
+/// non-null for Method::kModel and kFused. Errors: the PCL segmenter's (a scene and camera of
+/// different sizes); a scene with no objects gives zero instances.
 core::Result<SceneInstances> SegmentInstances(const core::Scene& scene, const core::Camera& camera,
                                               segmentation::Method method,
                                               const models::SegmentationModel* model);
@@ -54,7 +55,7 @@ std::vector<segmentation::InstanceInfo> DescribeSceneInstances(
 /// segmentation of the scene.
 struct Instances {
   cv::Mat1w labels;
-  const char* source = "labels";  ///< "labels" (the client's), "model" or "pcl"
+  const char* source = "labels";  ///< "labels" (the client's), "model", "pcl" or "fused"
   int count = 0;                  ///< instances with at least one pixel
   /// scores[id - 1] for ids 1..max id: the segmenter's; 1 for labels given by the client.
   std::vector<float> scores;

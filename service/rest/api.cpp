@@ -187,7 +187,7 @@ http::Response Info(const config::ServiceConfig& config, bool robot_running, con
       {"overlays", Overlays(models)},
       {"depth_formats", {"npy", "png16", "tiff"}},
       {"stiffness_formats", {"png8", "png16", "npy", "color"}},
-      {"segmentation_methods", segmentation ? json{"model", "pcl"} : json{"pcl"}},
+      {"segmentation_methods", segmentation ? json{"model", "pcl", "fused"} : json{"pcl"}},
       {"default_segmentation_method", segmentation ? "model" : "pcl"},
       {"segmentation_formats", {"json", "labels", "overlay", "deformability"}},
       {"mesh_formats", {"obj", "ply_ascii", "ply_binary", "stl_ascii", "stl_binary"}},
@@ -397,8 +397,7 @@ json SegmentationToJson(const SegmentationRequest& in, const engine::Segmentatio
   const segmentation::Method method = found.instances.method;
   return {
       {"method", segmentation::MethodName(method)},
-      {"segmentation_model",
-       method == segmentation::Method::kModel ? json("segmentation") : json()},
+      {"segmentation_model", method != segmentation::Method::kPcl ? json("segmentation") : json()},
       {"stiffness_model", models.stiffness ? json("pix2stiffness") : json()},
       {"image",
        {{"width", up.depth.width()},

@@ -251,9 +251,9 @@ core::Result<DepthUpload> DecodeUpload(const RequestFields& fields,
   return out;
 }
 
-constexpr std::array<const char*, 2> kMethodNames = {"model", "pcl"};
-constexpr std::array<std::optional<segmentation::Method>, 2> kMethods = {
-    segmentation::Method::kModel, segmentation::Method::kPcl};
+constexpr std::array<const char*, 3> kMethodNames = {"model", "pcl", "fused"};
+constexpr std::array<std::optional<segmentation::Method>, 3> kMethods = {
+    segmentation::Method::kModel, segmentation::Method::kPcl, segmentation::Method::kFused};
 
 // A label image upload: a 16-bit PNG of the depth's size, counts = instance ids (0 = none).
 core::Result<cv::Mat1w> DecodeLabels(const std::string& bytes, const config::ServiceConfig& config,
@@ -463,7 +463,7 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
       ParseChoice<bool, 2>(fields.values, "instances", false, {"true", "false"}, {true, false});
   if (!instances.ok()) return instances.error();
   plan.report_instances = instances.value();
-  auto method = ParseChoice<std::optional<segmentation::Method>, 2>(
+  auto method = ParseChoice<std::optional<segmentation::Method>, 3>(
       fields.values, "segmentation", std::nullopt, kMethodNames, kMethods);
   if (!method.ok()) return method.error();
   plan.instances.method = method.value();
@@ -546,7 +546,7 @@ core::Result<SegmentationRequest> ParseSegmentationRequest(const http::Request& 
                      std::string("unknown field '") + part + "' (it applies to /v1/grasps)", part);
   }
   SegmentationRequest out;
-  auto method = ParseChoice<std::optional<segmentation::Method>, 2>(
+  auto method = ParseChoice<std::optional<segmentation::Method>, 3>(
       fields.values, "method", std::nullopt, kMethodNames, kMethods);
   if (!method.ok()) return method.error();
   out.method = method.value();

@@ -79,7 +79,7 @@ enum class SegmentationFormat { kJson, kLabels, kOverlay, kDeformability };
 
 struct SegmentationRequest {
   DepthUpload upload;
-  /// Field "method" = "model" | "pcl". Unset: the model when one is loaded, else pcl.
+  /// Field "method" = "model" | "pcl" | "fused". Unset: the model when one is loaded, else pcl.
   std::optional<segmentation::Method> method;
   SegmentationFormat format = SegmentationFormat::kJson;
   /// format=deformability only: field "encoding" = png8 (default), png16, npy or color.

@@ -13,6 +13,8 @@ const char* MethodName(Method method) {
       return "model";
     case Method::kPcl:
       return "pcl";
+    case Method::kFused:
+      return "fused";
   }
   return "unknown";
 }

@@ -15,8 +15,9 @@
 namespace softgrasp::segmentation {
 
 /// Which segmenter produced an InstanceMasks.
-enum class Method { kModel, kPcl };
-const char* MethodName(Method method);  ///< "model" | "pcl"
+/// kFused: the model's instances plus the objects only the PCL baseline found (fuse.h).
+enum class Method { kModel, kPcl, kFused };
+const char* MethodName(Method method);  ///< "model" | "pcl" | "fused"
 
 /// Instances as a label image: 0 = background (floor, bin, table, nothing), 1..N = instance ids,
 /// dense (every id in 1..N has at least one pixel). scores[id - 1] in [0, 1] is the segmenter's

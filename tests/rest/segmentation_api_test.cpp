@@ -293,6 +293,7 @@ TEST_F(SegmentationApiTest, BadDepthGetsExactlyWhatGraspsGives) {
 
 TEST_F(SegmentationApiTest, ModelMethodWithoutAModelIsUnavailable) {
   ExpectError(Segment(Upload(Boxes(), {{"method", "model", ""}})), 503, "method");
+  ExpectError(Segment(Upload(Boxes(), {{"method", "fused", ""}})), 503, "method");
   // Deformability is the model's: a 400 for method=pcl, a 503 when no model could serve it.
   ExpectError(Segment(Upload(Boxes(), {{"method", "pcl", ""}, {"format", "deformability", ""}})),
               400, "format");
@@ -543,6 +544,31 @@ TEST(SegmentationApiModelTest, ModelAnswersWithDeformability) {
   // The PCL baseline still serves on request.
   EXPECT_EQ(
       server.Send(MultipartRequest("/v1/segmentation", Upload(f, {{"method", "pcl", ""}}))).status,
+      200);
+  // Fused: the model's instances plus what only the geometry found; one instance per box (the
+  // model is confident on these), with the model's deformability.
+  EXPECT_EQ(info["segmentation_methods"], json({"model", "pcl", "fused"}));
+  const json fused = ParseOk(
+      server.Send(MultipartRequest("/v1/segmentation", Upload(f, {{"method", "fused", ""}}))));
+  EXPECT_EQ(fused["method"], "fused");
+  EXPECT_EQ(fused["segmentation_model"], "segmentation");
+  const cv::Mat1w fused_labels = DecodePng(
+      server
+          .Send(MultipartRequest("/v1/segmentation",
+                                 Upload(f, {{"method", "fused", ""}, {"format", "labels", ""}})))
+          .body);
+  std::multiset<int> fused_boxes;
+  for (const json& inst : fused["instances"]) {
+    EXPECT_TRUE(inst["mean_deformability"].is_number());
+    if (inst["score"].get<double>() < 0.25) continue;
+    fused_boxes.insert(BoxOfInstance(fused_labels, inst["id"], f.scene.object_id));
+  }
+  EXPECT_EQ(fused_boxes, (std::multiset<int>{1, 2, 3}));
+  EXPECT_EQ(
+      server
+          .Send(MultipartRequest("/v1/segmentation", Upload(f, {{"method", "fused", ""},
+                                                                {"format", "deformability", ""}})))
+          .status,
       200);
   const json grasps = json::parse(
       server

@@ -300,6 +300,10 @@ describe('objects panel', () => {
   it('offers the methods /v1/info lists and preselects its default', () => {
     assert.deepEqual(segmentationChoices({ segmentation_methods: ['model', 'pcl'],
       default_segmentation_method: 'model' }).selected, 'model');
+    const all = segmentationChoices({ segmentation_methods: ['model', 'pcl', 'fused', 'magic'],
+      default_segmentation_method: 'model' });
+    assert.deepEqual(all.options.map((o) => o.value), ['model', 'pcl', 'fused']);
+    assert.equal(all.options[2].label, 'Model + PCL (other cameras)');
     const plain = segmentationChoices({ segmentation_methods: ['pcl'], default_segmentation_method: 'pcl' });
     assert.deepEqual(plain.options.map((o) => o.value), ['pcl']);
     assert.equal(plain.selected, 'pcl');

@@ -17,6 +17,7 @@
 #include "service/models/dataset.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
+#include "service/segmentation/fuse.h"
 #include "service/segmentation/instance_metrics.h"
 #include "service/segmentation/pcl_segmenter.h"
 #include "sim/progress.h"
@@ -103,8 +104,44 @@ struct DeformabilityStats {
   }
 };
 
+/// The instances FuseInstances added from the geometry alone: how many match a non-ignored
+/// truth instance at IoU >= 0.5 (their precision calibrates FuseParams::geometry_score).
+struct GeometryOnly {
+  int instances = 0, true50 = 0;
+  void Add(const segmentation::TruthImage& truth, const segmentation::InstanceMasks& fused,
+           const std::vector<bool>& from_geometry) {
+    for (int id = 1; id <= fused.count(); ++id) {
+      if (!from_geometry[static_cast<std::size_t>(id - 1)]) continue;
+      const cv::Mat1b mask = fused.labels == id;
+      double best = 0, on_ignored = 0;
+      double max_truth = 0;
+      cv::minMaxLoc(truth.labels, nullptr, &max_truth);
+      for (int t = 1; t <= static_cast<int>(max_truth); ++t) {
+        const cv::Mat1b object = truth.labels == t;
+        if (std::find(truth.ignored_ids.begin(), truth.ignored_ids.end(), t) !=
+            truth.ignored_ids.end()) {
+          on_ignored += cv::countNonZero(mask & object);
+          continue;
+        }
+        best = std::max(best, segmentation::MaskIou(mask, object));
+      }
+      // COCO's crowd rule: an unmatched detection mostly on ignored objects does not count.
+      if (best < 0.5 && on_ignored >= 0.5 * cv::countNonZero(mask)) continue;
+      ++instances;
+      if (best >= 0.5) ++true50;
+    }
+  }
+  json ToJson() const {
+    return {{"instances", instances},
+            {"true50", true50},
+            {"precision50",
+             Num(instances > 0 ? static_cast<double>(true50) / instances : std::nan(""))}};
+  }
+};
+
 struct SetResult {
-  segmentation::MaskEvaluator model, pcl;
+  segmentation::MaskEvaluator model, pcl, fused;
+  GeometryOnly geometry_only;
   DeformabilityStats model_def, baseline_def;
   std::vector<double> model_ms, pcl_ms;
   int scenes = 0, skipped = 0, ignored_instances = 0;
@@ -121,6 +158,8 @@ json SetJson(const SetResult& r, bool with_model) {
     j["model"] = ScoresJson(r.model.Compute());
     j["model_ms_median"] = Num(Median(r.model_ms));
     j["deformability_model"] = r.model_def.ToJson();
+    j["fused"] = ScoresJson(r.fused.Compute());
+    j["fused_geometry_only"] = r.geometry_only.ToJson();
   }
   return j;
 }
@@ -133,6 +172,7 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
   int max_scenes = 0, threads = 2;
   double baseline_deformability = 0.503;
   models::GroupingParams grouping;
+  segmentation::FuseParams fuse;
   args.Required("--model", "MODEL|none", &model_path);
   args.Required("--data", "DIR[,DIR...]", &data);
   args.Int("--scenes", 1, 10000000, &max_scenes);
@@ -146,6 +186,13 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
   }
   args.Int("--min-area", 0, 1000000, &grouping.min_area_px);
   args.Number("--max-vote-distance", cli::Bounds::AtLeast(0), &grouping.max_vote_distance_px);
+  double confident = fuse.confident_score, geometry = fuse.geometry_score;
+  args.Number("--confident-score", cli::Bounds::Closed(0, 1), &confident);
+  args.Number("--geometry-score", cli::Bounds::Closed(0, 1), &geometry);
+  args.Number("--max-covered-fraction", cli::Bounds::Closed(0, 1), &fuse.max_covered_fraction);
+  args.Number("--min-model-iou", cli::Bounds::Closed(0, 1), &fuse.min_model_iou);
+  fuse.confident_score = static_cast<float>(confident);
+  fuse.geometry_score = static_cast<float>(geometry);
   if (const auto error = args.Finish()) return Fail(error->message);
   models::SetTorchThreads(threads);
   std::optional<models::SegmentationModel> model;
@@ -214,6 +261,13 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
         all.model.Add(truth, m.instances);
         r.model_def.Add(def_truth, m.deformability, s.labels, s.category_of_id);
         all.model_def.Add(def_truth, m.deformability, s.labels, s.category_of_id);
+        std::vector<bool> from_geometry;
+        const segmentation::InstanceMasks fused =
+            segmentation::FuseInstances(m.instances, pcl.value(), fuse, &from_geometry);
+        r.fused.Add(truth, fused);
+        all.fused.Add(truth, fused);
+        r.geometry_only.Add(truth, fused, from_geometry);
+        all.geometry_only.Add(truth, fused, from_geometry);
       }
     }
     all.scenes += r.scenes;

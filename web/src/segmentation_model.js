@@ -6,10 +6,14 @@
 /** The segmentation methods to offer and the one to preselect (pcl only without info). */
 export function segmentationChoices(info) {
   const listed = info && Array.isArray(info.segmentation_methods)
-    ? info.segmentation_methods.filter((m) => m === 'model' || m === 'pcl') : [];
+    ? info.segmentation_methods.filter((m) => m === 'model' || m === 'pcl' || m === 'fused') : [];
   const names = listed.length ? [...new Set(listed)] : ['pcl'];
   const wanted = info && info.default_segmentation_method;
-  const labels = { model: 'Learned model', pcl: 'PCL baseline (clustering)' };
+  const labels = {
+    model: 'Learned model',
+    pcl: 'PCL baseline (clustering)',
+    fused: 'Model + PCL (other cameras)',
+  };
   return {
     options: names.map((value) => ({ value, label: labels[value] })),
     selected: names.includes(wanted) ? wanted : names[0],
