@@ -1,7 +1,8 @@
 // Segmentation on simulated 640x480 SR305 bin scenes with sensor noise, a usual bin (3-8 objects)
 // and a dense one (15-30 objects): the shipped model (network + grouping, models/segmentation.pt)
 // and, beside it in the same run, the PCL baseline (service/segmentation/pcl_segmenter.h) at
-// stride 1 (every pixel in the cloud, the default) and stride 2. Scenes are generated and
+// stride 1 (every pixel in the cloud, the default) and stride 2, and the two fused
+// (segmentation::FuseInstances, method=fused). Scenes are generated and
 // preprocessed once, outside the timed loop.
 #include <benchmark/benchmark.h>
 
@@ -11,6 +12,7 @@
 #include "service/core/preprocess.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
+#include "service/segmentation/fuse.h"
 #include "service/segmentation/pcl_segmenter.h"
 #include "sim/dataset/scene_gen.h"
 
@@ -98,6 +100,38 @@ void BM_SegmentModelDenseBin(benchmark::State& state) {
   RunModel(state, bin);
 }
 BENCHMARK(BM_SegmentModelDenseBin)->Unit(benchmark::kMillisecond);
+
+// method=fused as the service runs it: the model, the PCL baseline at its default stride 1, and
+// FuseInstances.
+void RunFused(benchmark::State& state, const Prepared& bin) {
+  const models::SegmentationModel* model = ShippedModel();
+  if (!model) {
+    state.SkipWithError("no shipped segmentation model");
+    return;
+  }
+  int instances = 0;
+  for (auto _ : state) {
+    const models::SegmentationOutput out = model->SegmentScene(bin.scene);
+    auto pcl = SegmentPcl(bin.scene, bin.camera);
+    if (!pcl.ok()) state.SkipWithError(pcl.error().message.c_str());
+    instances = pcl.ok() ? FuseInstances(out.instances, pcl.value()).count() : 0;
+    benchmark::DoNotOptimize(instances);
+  }
+  state.counters["objects"] = bin.objects;
+  state.counters["instances"] = instances;
+}
+
+void BM_SegmentFusedBin(benchmark::State& state) {
+  static const Prepared bin = MakeBin(3, 8, 101);
+  RunFused(state, bin);
+}
+BENCHMARK(BM_SegmentFusedBin)->Unit(benchmark::kMillisecond);
+
+void BM_SegmentFusedDenseBin(benchmark::State& state) {
+  static const Prepared bin = MakeBin(15, 30, 201);
+  RunFused(state, bin);
+}
+BENCHMARK(BM_SegmentFusedDenseBin)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace softgrasp::segmentation
