@@ -192,7 +192,33 @@ class Planner {
     out->pose.center_v_px = cv;
     out->pose.angle_rad = WrapAngle(std::atan2(b.v - a.v, b.u - a.u));
     out->pose.width_px = gripper_.opening_stroke_m * camera_.fx / surface;
-    return SampleDepth(out);
+    return SampleDepth(out) && JawsClear(out->pose);
+  }
+
+  // Whether the open jaws reach the grasp depth: every surface under the two finger boxes (at
+  // full opening, finger thickness along the closing axis beyond half the stroke, finger width
+  // across; pixels at the grasp depth) lies deeper than the fingertips.
+  bool JawsClear(const GraspImagePose& pose) const {
+    if (!params_.check_jaw_clearance) return true;
+    const double px_per_m = camera_.fx / pose.depth_m;
+    const double inner_px = 0.5 * gripper_.opening_stroke_m * px_per_m;
+    const double outer_px = inner_px + gripper_.finger_thickness_m * px_per_m;
+    const double half_width_px = 0.5 * gripper_.finger_width_m * px_per_m;
+    const double ax = std::cos(pose.angle_rad), ay = std::sin(pose.angle_rad);
+    const int along = std::max(1, static_cast<int>(std::ceil(outer_px - inner_px)));
+    const int across = std::max(1, static_cast<int>(std::ceil(2.0 * half_width_px)));
+    for (const double side : {-1.0, 1.0}) {
+      for (int i = 0; i <= along; ++i) {
+        const double a = side * (inner_px + (outer_px - inner_px) * i / along);
+        for (int j = 0; j <= across; ++j) {
+          const double b = -half_width_px + 2.0 * half_width_px * j / across;
+          const int u = static_cast<int>(std::lround(pose.center_u_px + a * ax - b * ay));
+          const int v = static_cast<int>(std::lround(pose.center_v_px + a * ay + b * ax));
+          if (Depth(u, v) < pose.depth_m) return false;
+        }
+      }
+    }
+    return true;
   }
 
   // Draws the grasp depth below the surface, kept above the floor.
@@ -299,6 +325,7 @@ class Planner {
                                   std::max(c.surface_depth_m + 0.25 * params_.min_depth_offset_m,
                                            floor_z - kFloorClearanceM));
       c.pose.width_px = gripper_.opening_stroke_m * camera_.fx / c.surface_depth_m;
+      if (!JawsClear(c.pose)) continue;
       c.quality = 0.0F;
       out.push_back(c);
     }
@@ -414,13 +441,14 @@ core::Result<PolicyPlan> PlanGqcnnGrasps(const core::Scene& scene, const core::C
   const std::vector<std::pair<int, int>> pairs = planner.AntipodalPairs(edges);
   plan.antipodal_pairs = static_cast<int>(pairs.size());
 
-  // Seed candidates: distinct pairs drawn at random (all of them when there are few).
+  // Seed candidates: distinct pairs drawn at random until seed_samples of them make a grasp the
+  // jaws can reach (all of them when there are few).
   std::vector<std::size_t> order(pairs.size());
   std::iota(order.begin(), order.end(), 0);
   Rng draw(params.seed ^ 0x9e3779b97f4a7c15ULL);
-  const std::size_t seeds = std::min(order.size(), static_cast<std::size_t>(params.seed_samples));
+  const std::size_t seeds = static_cast<std::size_t>(params.seed_samples);
   std::vector<Candidate> all;
-  for (std::size_t i = 0; i < seeds; ++i) {
+  for (std::size_t i = 0; i < order.size() && all.size() < seeds; ++i) {
     std::swap(order[i], order[i + draw.Index(order.size() - i)]);
     Candidate c;
     if (planner.FromPair(edges[pairs[order[i]].first], edges[pairs[order[i]].second], &c)) {

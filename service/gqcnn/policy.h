@@ -52,6 +52,11 @@ struct PolicyParams {
   /// crop 96 * fx / training_fx_px pixels so the crop spans the same angle.
   double training_fx_px = 525.0;
   int source_crop_px = 96;
+  /// Candidates whose open jaws would not reach the grasp depth are dropped before scoring:
+  /// some surface under a finger (at full opening, in pixels at the grasp depth) is nearer than
+  /// the fingertips, i.e. the object is wider than the stroke there or a neighbour is in the
+  /// way. Dex-Net 2.0 leaves this to the network; ours learnt it too weakly (docs/gqcnn.md).
+  bool check_jaw_clearance = true;
   /// Grasps returned, best first, after suppressing near-duplicates.
   int num_grasps = 10;
   std::uint64_t seed = 0;

@@ -177,6 +177,51 @@ TEST(GqcnnPolicyTest, TooWideForTheStrokeGivesNoPairs) {
   EXPECT_EQ(plan.value().antipodal_pairs, 0);
 }
 
+// A 3 cm wide box (5 cm tall) with a 4 cm tall block 1.5 cm beside its long side: across the
+// box, the 5 cm stroke puts one finger on the block unless the fingertips stay above it. With a
+// quality function that likes everything, the jaw check keeps only grasps whose fingertips
+// clear the block (grasp height above 4 cm); without it, deeper grasps that land on the block
+// are returned too.
+TEST(GqcnnPolicyTest, OpenJawsMustReachTheGraspDepth) {
+  core::DepthImage depth = BoxScene(160, 120, 0.09, 0.03, 0.05, 0.0);
+  const double block_top = kTableZ - 0.04;
+  const double px_per_m = TestCamera().fx / block_top;
+  // The block: v from 1.5 + 1.5 cm below the box's centre row to the image's bottom, across.
+  for (int v = static_cast<int>(std::ceil(120 + 0.03 * px_per_m)); v < depth.depth_m.rows; ++v) {
+    for (int u = 0; u < depth.depth_m.cols; ++u) {
+      depth.depth_m(v, u) = static_cast<float>(block_top);
+    }
+  }
+  const core::Scene scene = Prepared(depth);
+  const auto anything = [](std::span<const float>, std::span<const float> depths) {
+    return std::vector<float>(depths.size(), 0.5F);
+  };
+  PolicyParams params;
+  params.num_grasps = 50;
+  // Grasps across the box (|angle - 90 deg| < 20 deg) near its middle.
+  const auto across_box = [](const core::Grasp& g) {
+    return std::fabs(g.angle_rad - kPi / 2) < 0.35 && std::fabs(g.center_v_px - 120) < 10 &&
+           std::fabs(g.center_u_px - 160) < 60;
+  };
+  auto checked = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, params, anything);
+  ASSERT_TRUE(checked.ok());
+  int across = 0;
+  for (const PolicyGrasp& g : checked.value().grasps) {
+    if (!across_box(g.grasp)) continue;
+    ++across;
+    EXPECT_GT(g.grasp.grasp_height_m, 0.04) << "a finger lands on the block";
+  }
+  EXPECT_GT(across, 0);
+  params.check_jaw_clearance = false;
+  auto unchecked = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, params, anything);
+  ASSERT_TRUE(unchecked.ok());
+  int landing = 0;
+  for (const PolicyGrasp& g : unchecked.value().grasps) {
+    if (across_box(g.grasp) && g.grasp.grasp_height_m < 0.035) ++landing;
+  }
+  EXPECT_GT(landing, 0);
+}
+
 TEST(GqcnnPolicyTest, RefusesBadParametersAndBadQualityFunctions) {
   const core::Scene scene = Prepared(BoxScene(160, 120, 0.09, 0.03, 0.05, 0.0));
   PolicyParams params;

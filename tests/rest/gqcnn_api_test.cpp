@@ -117,7 +117,12 @@ TEST_F(GqcnnApiTest, SameSeedSameGraspsAndFewerCandidatesCostFewerCrops) {
   EXPECT_EQ(a["grasps"], b["grasps"]);
   const json small =
       Grasps(0, "strategy=gqcnn&gqcnn_seed_samples=40&cem_iterations=1&cem_samples=20");
-  EXPECT_EQ(small["gqcnn"]["evaluated"], 40 + 20);
+  // 40 seeds, then at most 20 refined draws (draws whose open jaws would not reach the grasp
+  // depth are not scored; the refinement gives up after 10 tries per sample).
+  const int evaluated = small["gqcnn"]["evaluated"];
+  EXPECT_GE(evaluated, 40 + 10);
+  EXPECT_LE(evaluated, 40 + 20);
+  EXPECT_GT(a["gqcnn"]["evaluated"].get<int>(), evaluated);
 }
 
 TEST_F(GqcnnApiTest, InfoListsTheModelAndItsDefaults) {

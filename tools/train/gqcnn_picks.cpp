@@ -46,6 +46,7 @@ struct Planner {
   std::string name;  // "fge" or "gqcnn:<model file stem>"
   engine::Strategy strategy = engine::Strategy::kFge;
   engine::Models models;
+  bool jaw_check = true;  // gqcnn::PolicyParams::check_jaw_clearance
 };
 
 // Per planner, one entry per scene: 1 success, 0 failure (no grasp counts as a failure).
@@ -88,6 +89,7 @@ void RunScene(const sim::SimScene& scene, const sim::RenderOptions& render,
     options.gripper = gripper;
     options.fge.top_k = 1;
     options.gqcnn.seed = scene.seed;
+    options.gqcnn.check_jaw_clearance = planners[p].jaw_check;
     options.region_of_interest = workspace;
     auto plan = engine::PlanGrasps(views.depth, render.camera, options, planners[p].models);
     out.success.push_back(0.0);
@@ -170,6 +172,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
   long long seed = 0;
   double camera_height_m = 0.70;
   std::string out_path;
+  const bool without_jaw_check = args.Flag("--also-without-jaw-check");
   args.Count("--single-scenes", &single_scenes, 10000);
   args.Count("--clutter-scenes", &clutter_scenes, 10000);
   args.Int("--seed", 0, cli::kNoLimit, &seed);
@@ -190,7 +193,12 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
     if (!model.ok()) return Fail(model.error().message);
     Planner p{"gqcnn:" + fs::path(path).stem().string(), engine::Strategy::kGqcnn, {}};
     p.models.gqcnn = std::make_shared<const models::GqcnnModel>(std::move(model).value());
-    planners.push_back(std::move(p));
+    planners.push_back(p);
+    if (without_jaw_check) {  // the same network, candidates not checked for the open jaws
+      p.name += ":no-jaw-check";
+      p.jaw_check = false;
+      planners.push_back(std::move(p));
+    }
   }
 
   std::vector<std::shared_ptr<const sim::SimObject>> heldout;
