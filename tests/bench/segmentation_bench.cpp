@@ -73,7 +73,9 @@ const models::SegmentationModel* ShippedModel() {
   return model.ok() ? &model.value() : nullptr;
 }
 
-void RunModel(benchmark::State& state, const Prepared& bin) {
+// Times `segment(model)` (returning the instance count) with the shipped model.
+template <class Segment>
+void RunWithModel(benchmark::State& state, const Prepared& bin, Segment&& segment) {
   const models::SegmentationModel* model = ShippedModel();
   if (!model) {
     state.SkipWithError("no shipped segmentation model");
@@ -81,12 +83,17 @@ void RunModel(benchmark::State& state, const Prepared& bin) {
   }
   int instances = 0;
   for (auto _ : state) {
-    const models::SegmentationOutput out = model->SegmentScene(bin.scene);
-    instances = out.instances.count();
+    instances = segment(*model);
     benchmark::DoNotOptimize(instances);
   }
   state.counters["objects"] = bin.objects;
   state.counters["instances"] = instances;
+}
+
+void RunModel(benchmark::State& state, const Prepared& bin) {
+  RunWithModel(state, bin, [&](const models::SegmentationModel& model) {
+    return model.SegmentScene(bin.scene).instances.count();
+  });
 }
 
 void BM_SegmentModelBin(benchmark::State& state) {
@@ -104,21 +111,15 @@ BENCHMARK(BM_SegmentModelDenseBin)->Unit(benchmark::kMillisecond);
 // method=fused as the service runs it: the model, the PCL baseline at its default stride 1, and
 // FuseInstances.
 void RunFused(benchmark::State& state, const Prepared& bin) {
-  const models::SegmentationModel* model = ShippedModel();
-  if (!model) {
-    state.SkipWithError("no shipped segmentation model");
-    return;
-  }
-  int instances = 0;
-  for (auto _ : state) {
-    const models::SegmentationOutput out = model->SegmentScene(bin.scene);
+  RunWithModel(state, bin, [&](const models::SegmentationModel& model) {
+    const models::SegmentationOutput out = model.SegmentScene(bin.scene);
     auto pcl = SegmentPcl(bin.scene, bin.camera);
-    if (!pcl.ok()) state.SkipWithError(pcl.error().message.c_str());
-    instances = pcl.ok() ? FuseInstances(out.instances, pcl.value()).count() : 0;
-    benchmark::DoNotOptimize(instances);
-  }
-  state.counters["objects"] = bin.objects;
-  state.counters["instances"] = instances;
+    if (!pcl.ok()) {
+      state.SkipWithError(pcl.error().message.c_str());
+      return 0;
+    }
+    return FuseInstances(out.instances, pcl.value()).count();
+  });
 }
 
 void BM_SegmentFusedBin(benchmark::State& state) {

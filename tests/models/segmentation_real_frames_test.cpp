@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "service/core/preprocess.h"
 #include "service/io/overlay.h"
@@ -39,26 +40,43 @@ struct Frame {
   double min_fused_iou;
 };
 
-class RealFrames : public ::testing::TestWithParam<Frame> {};
+// The shipped model, its card's confident threshold, and the frame: depth, preprocessed scene and
+// the given object mask. Skips without a shipped model.
+class RealFrames : public ::testing::TestWithParam<Frame> {
+ protected:
+  void SetUp() override {
+    const Frame& f = GetParam();
+    const fs::path model_path = fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "segmentation.pt";
+    if (!fs::exists(model_path)) GTEST_SKIP() << "no shipped model at " << model_path;
+    std::ifstream card(fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "segmentation.json");
+    confident_ = nlohmann::json::parse(card).at("confident_score").get<float>();
+    SetTorchThreads(2);
+    auto model = SegmentationModel::Load(model_path);
+    ASSERT_TRUE(model.ok()) << model.error().message;
+    model_.emplace(std::move(model).value());
+    depth_ = core::DepthImage{testing::LoadNpyFloat32(testing::TestData(f.depth))};
+    auto scene = core::Preprocess(depth_, f.camera);
+    ASSERT_TRUE(scene.ok()) << scene.error().message;
+    scene_ = std::move(scene).value();
+    truth_ = cv::imread(testing::TestData(f.mask), cv::IMREAD_GRAYSCALE) > 0;
+    ASSERT_EQ(truth_.size(), depth_.depth_m.size());
+  }
+
+  float confident_ = 0;
+  std::optional<SegmentationModel> model_;
+  core::DepthImage depth_;
+  core::Scene scene_;
+  cv::Mat1b truth_;
+};
 
 TEST_P(RealFrames, ConfidentInstancesCoverTheObjects) {
   const Frame& f = GetParam();
-  const fs::path model_path = fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "segmentation.pt";
-  if (!fs::exists(model_path)) GTEST_SKIP() << "no shipped model at " << model_path;
-  std::ifstream card(fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "segmentation.json");
-  const float kConfident = nlohmann::json::parse(card).at("confident_score").get<float>();
-  SetTorchThreads(2);
-  auto model = SegmentationModel::Load(model_path);
-  ASSERT_TRUE(model.ok()) << model.error().message;
-  const core::DepthImage depth{testing::LoadNpyFloat32(testing::TestData(f.depth))};
-  auto scene = core::Preprocess(depth, f.camera);
-  ASSERT_TRUE(scene.ok()) << scene.error().message;
-  const cv::Mat1b truth = cv::imread(testing::TestData(f.mask), cv::IMREAD_GRAYSCALE) > 0;
-  ASSERT_EQ(truth.size(), depth.depth_m.size());
-
-  model.value().SegmentScene(scene.value());  // warm-up
+  const float kConfident = confident_;
+  const core::DepthImage& depth = depth_;
+  const cv::Mat1b& truth = truth_;
+  model_->SegmentScene(scene_);  // warm-up
   const auto start = std::chrono::steady_clock::now();
-  const SegmentationOutput out = model.value().SegmentScene(scene.value());
+  const SegmentationOutput out = model_->SegmentScene(scene_);
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   cv::Mat1b confident(truth.size(), std::uint8_t{0});
@@ -118,26 +136,17 @@ TEST_P(RealFrames, ConfidentInstancesCoverTheObjects) {
 // FuseParams::geometry_score) against the same masks.
 TEST_P(RealFrames, FusedConfidentInstancesCoverTheObjects) {
   const Frame& f = GetParam();
-  const fs::path model_path = fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "segmentation.pt";
-  if (!fs::exists(model_path)) GTEST_SKIP() << "no shipped model at " << model_path;
-  std::ifstream card(fs::path(SOFTGRASP_SOURCE_DIR) / "models" / "segmentation.json");
-  const float kConfident = nlohmann::json::parse(card).at("confident_score").get<float>();
+  const float kConfident = confident_;
+  const cv::Mat1b& truth = truth_;
   const segmentation::FuseParams params;
   // The service fuses with the default threshold: it must be the card's.
   EXPECT_FLOAT_EQ(params.confident_score, kConfident);
   EXPECT_GE(params.geometry_score, kConfident);
-  SetTorchThreads(2);
-  auto model = SegmentationModel::Load(model_path);
-  ASSERT_TRUE(model.ok()) << model.error().message;
-  const core::DepthImage depth{testing::LoadNpyFloat32(testing::TestData(f.depth))};
-  auto scene = core::Preprocess(depth, f.camera);
-  ASSERT_TRUE(scene.ok()) << scene.error().message;
-  const cv::Mat1b truth = cv::imread(testing::TestData(f.mask), cv::IMREAD_GRAYSCALE) > 0;
-  auto pcl = segmentation::SegmentPcl(scene.value(), f.camera);
+  auto pcl = segmentation::SegmentPcl(scene_, f.camera);
   ASSERT_TRUE(pcl.ok()) << pcl.error().message;
   std::vector<bool> from_geometry;
   const segmentation::InstanceMasks fused = segmentation::FuseInstances(
-      model.value().SegmentScene(scene.value()).instances, pcl.value(), params, &from_geometry);
+      model_->SegmentScene(scene_).instances, pcl.value(), params, &from_geometry);
   cv::Mat1b confident(truth.size(), std::uint8_t{0});
   int kept = 0, added = 0;
   for (int id = 1; id <= fused.count(); ++id) {
@@ -161,7 +170,7 @@ TEST_P(RealFrames, FusedConfidentInstancesCoverTheObjects) {
     cv::Mat1w shown = fused.labels.clone();
     shown.setTo(0, ~(confident > 0));
     cv::imwrite(std::string(dir) + "/segmentation-fused-" + f.name + ".png",
-                io::DrawInstances(io::ColorizeDepth(depth), shown));
+                io::DrawInstances(io::ColorizeDepth(depth_), shown));
   }
   EXPECT_GE(iou, f.min_fused_iou);
   EXPECT_LE(off, f.max_off_object);
