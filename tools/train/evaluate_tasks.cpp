@@ -309,6 +309,7 @@ void Record(Task task, const sim::SimScene& scene, const sim::SceneRaycaster& ra
       s->per_grasp.push_back({{"scene", s->success.size() - 1},
                               {"outcome", "no_grasp"},
                               {"detect_ms", plan.detect_ms},
+                              {"segmentation_ms", plan.segmentation_ms},
                               {"planner_ms", plan.planner_ms},
                               {"target_iou", *plan.target_iou}});
     }
