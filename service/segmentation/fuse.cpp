@@ -67,6 +67,22 @@ InstanceMasks FuseInstances(const InstanceMasks& model, const InstanceMasks& pcl
                best_model_iou[id] >= params.min_model_iou;
   }
 
+  // A PCL instance that overlaps one confident model instance only, and holds at least
+  // min_inside_fraction of it, gives it its pixels the model left as background.
+  std::vector<int> extends(area.size(), 0);
+  std::vector<int> holders(area.size(), 0);
+  for (const auto& [ids, inter] : both) {
+    const auto [p, m] = ids;
+    if (!confident[static_cast<std::size_t>(m)]) continue;
+    ++holders[static_cast<std::size_t>(p)];
+    if (inter >= params.extend_min_inside_fraction * model_area[static_cast<std::size_t>(m)]) {
+      extends[static_cast<std::size_t>(p)] = m;
+    }
+  }
+  for (std::size_t id = 1; id < area.size(); ++id) {
+    if (holders[id] != 1) extends[id] = 0;
+  }
+
   // Model ids keep theirs; the geometry's new objects follow them.
   cv::Mat1w fused = model.labels.clone();
   for (int v = 0; v < fused.rows; ++v) {
@@ -75,6 +91,8 @@ InstanceMasks FuseInstances(const InstanceMasks& model, const InstanceMasks& pcl
     for (int u = 0; u < fused.cols; ++u) {
       if (p[u] != 0 && adds[p[u]] && !confident[f[u]]) {
         f[u] = static_cast<std::uint16_t>(model_count + p[u]);
+      } else if (p[u] != 0 && f[u] == 0 && extends[p[u]] != 0) {
+        f[u] = static_cast<std::uint16_t>(extends[p[u]]);
       }
     }
   }

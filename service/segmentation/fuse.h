@@ -7,8 +7,9 @@
 /// FuseInstances keeps every model instance and adds the objects only the geometry found: a PCL
 /// instance of which at most `max_covered_fraction` lies inside the model's confident instances
 /// becomes a new instance on its pixels outside them (taking them from unconfident model
-/// instances), scored `geometry_score`. Model instances left smaller than `min_area_px` are
-/// dropped. See docs/segmentation.md ("Fused").
+/// instances), scored `geometry_score`. A PCL instance around one confident model instance
+/// extends it over the background (extend_min_inside_fraction). Model instances left smaller
+/// than `min_area_px` are dropped. See docs/segmentation.md ("Fused").
 
 #include <vector>
 
@@ -29,6 +30,10 @@ struct FuseParams {
   /// Score of an instance found only by the geometry (docs/segmentation.md: its measured
   /// precision on the simulated selection scenes).
   float geometry_score = 0.3f;
+  /// A PCL instance that overlaps exactly one confident model instance and holds at least this
+  /// fraction of it extends that instance over its pixels the model left as background (the
+  /// flat rim of an object whose raised middle the model found). Above 1: never.
+  double extend_min_inside_fraction = 0.8;
   /// Least pixels of any output instance (at 640 x 480, scaled with the image area).
   int min_area_px = 150;
 };

@@ -34,30 +34,39 @@ TEST(FuseInstances, AddsWhatOnlyTheGeometryFoundAndKeepsTheModelsInstances) {
   FuseParams params;
   std::vector<bool> from_geometry;
   const InstanceMasks fused = FuseInstances(model, pcl, params, &from_geometry);
-  // A stays the model's (id 1, its own pixels only); B and C come from the geometry with the
-  // geometry's score, B's pixels taken from the unconfident model instance.
+  // A stays the model's (id 1), grown to PCL's footprint of it (a 2 px ring); B and C come from
+  // the geometry with the geometry's score, B's pixels taken from the unconfident model
+  // instance.
   ASSERT_EQ(fused.count(), 3);
   EXPECT_EQ(fused.scores, (std::vector<float>{0.8f, params.geometry_score, params.geometry_score}));
   EXPECT_EQ(from_geometry, (std::vector<bool>{false, true, true}));
-  EXPECT_EQ(cv::countNonZero(fused.labels == 1), 60 * 60);
-  EXPECT_EQ(cv::countNonZero(fused.labels(cv::Rect(100, 100, 60, 60)) == 1), 60 * 60);
+  EXPECT_EQ(cv::countNonZero(fused.labels == 1), 64 * 64);
+  EXPECT_EQ(cv::countNonZero(fused.labels(cv::Rect(98, 98, 64, 64)) == 1), 64 * 64);
   // Equal scores: the larger area first (B, 1600 px, before C, 1500 px).
   EXPECT_EQ(cv::countNonZero(fused.labels == 2), 40 * 40);
   EXPECT_EQ(cv::countNonZero(fused.labels(cv::Rect(300, 100, 40, 40)) == 2), 40 * 40);
   EXPECT_EQ(cv::countNonZero(fused.labels == 3), 50 * 30);
-  // The ring PCL adds around A (A covers 88 % of that PCL instance) is not an object.
-  EXPECT_EQ(cv::countNonZero(fused.labels(cv::Rect(98, 98, 64, 64)) == 0), 64 * 64 - 60 * 60);
+  // Without the extension the ring PCL adds around A (A covers 88 % of that PCL instance) is
+  // not an object of its own.
+  FuseParams no_extension;
+  no_extension.extend_min_inside_fraction = 2.0;
+  const InstanceMasks plain = FuseInstances(model, pcl, no_extension);
+  ASSERT_EQ(plain.count(), 3);
+  EXPECT_EQ(cv::countNonZero(plain.labels == 1), 60 * 60);
+  EXPECT_EQ(cv::countNonZero(plain.labels(cv::Rect(98, 98, 64, 64)) == 0), 64 * 64 - 60 * 60);
 }
 
 TEST(FuseInstances, APclInstanceMostlyInsideAConfidentOneAddsNothing) {
   // PCL merges the confident A with a neighbour: 1/3 of it is A (above the 0.2 limit).
   const InstanceMasks model = Masks(kSize, {{cv::Rect(100, 100, 40, 60), 0.9f}});
   const InstanceMasks pcl = Masks(kSize, {{cv::Rect(100, 100, 120, 60), 0.5f}});
-  const InstanceMasks fused = FuseInstances(model, pcl);
+  FuseParams params;
+  params.extend_min_inside_fraction = 2.0;  // extension off: next test
+  const InstanceMasks fused = FuseInstances(model, pcl, params);
   ASSERT_EQ(fused.count(), 1);
   EXPECT_EQ(cv::countNonZero(fused.labels == 1), 40 * 60);
   // With a looser limit the neighbour's 2/3 become an object of their own.
-  FuseParams loose;
+  FuseParams loose = params;
   loose.max_covered_fraction = 0.4;
   const InstanceMasks more = FuseInstances(model, pcl, loose);
   ASSERT_EQ(more.count(), 2);
@@ -79,6 +88,35 @@ TEST(FuseInstances, AgreementRuleAndSmallLeftovers) {
   const InstanceMasks fused = FuseInstances(sliver, pcl);
   ASSERT_EQ(fused.count(), 1);
   EXPECT_EQ(cv::countNonZero(fused.labels == 1), 50 * 30);
+}
+
+TEST(FuseInstances, APclInstanceAroundOneConfidentInstanceExtendsIt) {
+  // The model found the raised middle (40 x 20) of an object whose PCL footprint is 80 x 40; an
+  // unconfident model instance sits on part of the footprint and keeps its pixels.
+  const InstanceMasks model =
+      Masks(kSize, {{cv::Rect(220, 210, 40, 20), 0.7f}, {cv::Rect(200, 200, 10, 10), 0.1f}});
+  const InstanceMasks pcl = Masks(kSize, {{cv::Rect(200, 200, 80, 40), 0.9f}});
+  const InstanceMasks fused = FuseInstances(model, pcl);
+  ASSERT_EQ(fused.count(), 1);  // the unconfident one (100 px) is below min_area_px
+  EXPECT_EQ(fused.scores[0], 0.7f);
+  EXPECT_EQ(cv::countNonZero(fused.labels == 1), 80 * 40 - 10 * 10);
+  // Off: the model's instance as it was.
+  FuseParams off;
+  off.extend_min_inside_fraction = 2.0;
+  EXPECT_EQ(cv::countNonZero(FuseInstances(model, pcl, off).labels == 1), 40 * 20);
+  // A PCL cluster over two confident instances (two touching objects) extends neither.
+  const InstanceMasks two =
+      Masks(kSize, {{cv::Rect(200, 200, 30, 40), 0.7f}, {cv::Rect(250, 200, 30, 40), 0.6f}});
+  const InstanceMasks merged = FuseInstances(two, pcl);
+  EXPECT_EQ(cv::countNonZero(merged.labels == 1), 30 * 40);
+  EXPECT_EQ(cv::countNonZero(merged.labels == 2), 30 * 40);
+  // The price: a neighbour the model does not see at all, merged by PCL with a confident
+  // instance (more than max_covered_fraction of the cluster), joins that instance.
+  const InstanceMasks beside = Masks(kSize, {{cv::Rect(200, 200, 40, 40), 0.7f}});
+  EXPECT_EQ(cv::countNonZero(FuseInstances(beside, pcl).labels == 1), 80 * 40);
+  // A PCL instance holding only part of the confident instance extends nothing.
+  const InstanceMasks half = Masks(kSize, {{cv::Rect(260, 210, 40, 20), 0.7f}});
+  EXPECT_EQ(cv::countNonZero(FuseInstances(half, pcl).labels == 1), 40 * 20);
 }
 
 TEST(FuseInstances, NoInstancesAndBadInput) {
