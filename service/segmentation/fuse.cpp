@@ -68,7 +68,7 @@ InstanceMasks FuseInstances(const InstanceMasks& model, const InstanceMasks& pcl
   }
 
   // A PCL instance that overlaps one confident model instance only, and holds at least
-  // min_inside_fraction of it, gives it its pixels the model left as background.
+  // extend_min_inside_fraction of it, gives it its pixels the model left as background.
   std::vector<int> extends(area.size(), 0);
   std::vector<int> holders(area.size(), 0);
   for (const auto& [ids, inter] : both) {
