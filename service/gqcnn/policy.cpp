@@ -20,6 +20,8 @@ constexpr double kBoundaryFractionOfCrop = 45.0 / 96.0;
 // The grasp centre stays this far above the floor along its pixel's ray: below it the jaws are
 // in the table.
 constexpr double kFloorClearanceM = 0.002;
+// Seed pairs tried per seed candidate wanted, at most (the rest fail the jaw check).
+constexpr std::size_t kMaxPairDrawsPerSeed = 20;
 // Two grasps closer than this fraction of the opening and this angle are one (suppression).
 constexpr double kDuplicateDistanceFraction = 0.2;
 constexpr double kDuplicateAngleRad = 15.0 * kPi / 180.0;
@@ -442,13 +444,15 @@ core::Result<PolicyPlan> PlanGqcnnGrasps(const core::Scene& scene, const core::C
   plan.antipodal_pairs = static_cast<int>(pairs.size());
 
   // Seed candidates: distinct pairs drawn at random until seed_samples of them make a grasp the
-  // jaws can reach (all of them when there are few).
+  // jaws can reach, trying at most kMaxPairDrawsPerSeed times as many pairs (all of them when
+  // there are few): a scene where almost nothing fits the jaws does not walk every pair.
   std::vector<std::size_t> order(pairs.size());
   std::iota(order.begin(), order.end(), 0);
   Rng draw(params.seed ^ 0x9e3779b97f4a7c15ULL);
   const std::size_t seeds = static_cast<std::size_t>(params.seed_samples);
+  const std::size_t draws = std::min(order.size(), kMaxPairDrawsPerSeed * seeds);
   std::vector<Candidate> all;
-  for (std::size_t i = 0; i < order.size() && all.size() < seeds; ++i) {
+  for (std::size_t i = 0; i < draws && all.size() < seeds; ++i) {
     std::swap(order[i], order[i + draw.Index(order.size() - i)]);
     Candidate c;
     if (planner.FromPair(edges[pairs[order[i]].first], edges[pairs[order[i]].second], &c)) {
