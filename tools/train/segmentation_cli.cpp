@@ -33,11 +33,15 @@ const char* const kSegmentationUsage =
     "                                    [--scenes N] [--baseline-deformability D] [--threads T]\n"
     "                                    [--foreground-threshold P] [--centre-threshold C]\n"
     "                                    [--peak-window W] [--min-area A]\n"
-    "                                    [--max-vote-distance R]\n"
-    "  Prints JSON: mask AP (IoU 0.50:0.95), AP50, AP75, AR of the model and the PCL baseline\n"
+    "                                    [--max-vote-distance R] [--confident-score S]\n"
+    "                                    [--geometry-score S] [--max-covered-fraction F]\n"
+    "                                    [--min-model-iou I] [--extend-min-inside-fraction F]\n"
+    "  Prints JSON: mask AP (IoU 0.50:0.95), AP50, AP75, AR of the model, the PCL baseline and\n"
+    "  the two fused (method=fused, with the precision of the instances the geometry added)\n"
     "  per dataset and over all, per object category, and the deformability map's RMSE (0-255)\n"
     "  and MSSIM against a baseline (PCL masks filled with the constant D, default 0.503 = the\n"
-    "  training mean). The last five options override the model's grouping thresholds.\n";
+    "  training mean). --foreground-threshold ... --max-vote-distance override the model's\n"
+    "  grouping thresholds; the last five override segmentation::FuseParams.\n";
 
 namespace {
 

@@ -108,14 +108,17 @@ struct DeformabilityStats {
 /// truth instance at IoU >= 0.5 (their precision calibrates FuseParams::geometry_score).
 struct GeometryOnly {
   int instances = 0, true50 = 0;
-  void Add(const segmentation::TruthImage& truth, const segmentation::InstanceMasks& fused,
-           const std::vector<bool>& from_geometry) {
+  /// One scene's added instances against its truth.
+  static GeometryOnly Of(const segmentation::TruthImage& truth,
+                         const segmentation::InstanceMasks& fused,
+                         const std::vector<bool>& from_geometry) {
+    GeometryOnly scene;
+    double max_truth = 0;
+    cv::minMaxLoc(truth.labels, nullptr, &max_truth);
     for (int id = 1; id <= fused.count(); ++id) {
       if (!from_geometry[static_cast<std::size_t>(id - 1)]) continue;
       const cv::Mat1b mask = fused.labels == id;
       double best = 0, on_ignored = 0;
-      double max_truth = 0;
-      cv::minMaxLoc(truth.labels, nullptr, &max_truth);
       for (int t = 1; t <= static_cast<int>(max_truth); ++t) {
         const cv::Mat1b object = truth.labels == t;
         if (std::find(truth.ignored_ids.begin(), truth.ignored_ids.end(), t) !=
@@ -127,9 +130,14 @@ struct GeometryOnly {
       }
       // COCO's crowd rule: an unmatched detection mostly on ignored objects does not count.
       if (best < 0.5 && on_ignored >= 0.5 * cv::countNonZero(mask)) continue;
-      ++instances;
-      if (best >= 0.5) ++true50;
+      ++scene.instances;
+      if (best >= 0.5) ++scene.true50;
     }
+    return scene;
+  }
+  void Add(const GeometryOnly& scene) {
+    instances += scene.instances;
+    true50 += scene.true50;
   }
   json ToJson() const {
     return {{"instances", instances},
@@ -191,6 +199,8 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
   args.Number("--geometry-score", cli::Bounds::Closed(0, 1), &geometry);
   args.Number("--max-covered-fraction", cli::Bounds::Closed(0, 1), &fuse.max_covered_fraction);
   args.Number("--min-model-iou", cli::Bounds::Closed(0, 1), &fuse.min_model_iou);
+  args.Number("--extend-min-inside-fraction", cli::Bounds::AtLeast(0),
+              &fuse.extend_min_inside_fraction);
   fuse.confident_score = static_cast<float>(confident);
   fuse.geometry_score = static_cast<float>(geometry);
   if (const auto error = args.Finish()) return Fail(error->message);
@@ -266,8 +276,9 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
             segmentation::FuseInstances(m.instances, pcl.value(), fuse, &from_geometry);
         r.fused.Add(truth, fused);
         all.fused.Add(truth, fused);
-        r.geometry_only.Add(truth, fused, from_geometry);
-        all.geometry_only.Add(truth, fused, from_geometry);
+        const GeometryOnly added = GeometryOnly::Of(truth, fused, from_geometry);
+        r.geometry_only.Add(added);
+        all.geometry_only.Add(added);
       }
     }
     all.scenes += r.scenes;
