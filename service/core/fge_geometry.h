@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "service/core/contact_check.h"
 #include "service/core/fge.h"
 
 namespace softgrasp::core::fge_detail {
@@ -40,13 +41,6 @@ struct Slice {
   double contact_height_m = 0;
   double tip_height_m = 0;
   double palm_height_m = 0;
-};
-
-/// Gripper sizes in pixels at one image scale.
-struct GripperPx {
-  double opening_px = 0;
-  double finger_width_px = 0;
-  double finger_thickness_px = 0;
 };
 
 /// The templates rasterised on a pixel grid aligned with the closing axis (pixel-centre rule):
@@ -177,16 +171,5 @@ bool SimilarAngle(const C& a, const C& b, int num_angles) {
   const int d = std::abs(a.angle_index - b.angle_index) % num_angles;
   return std::min(d, num_angles - d) <= 1;
 }
-
-/// The contact check (docs/fge.md, "Contact check"): along every line of the closing region
-/// parallel to the closing axis, the outermost surface point above tip_height_m on each side is
-/// where that line meets a finger. Lines within 2 mm of the first contact form the patch.
-/// kStable: each finger's patch is 5 mm (and >= 2 px) long; kFirm: it also covers at least half
-/// the finger's width (a face within ~10 deg of the finger pad at typical scales, not an
-/// object's end or corner). Planners take firm grasps and fall back to stable ones only when no
-/// firm one is found.
-enum class ContactHold { kNone, kStable, kFirm };
-ContactHold CheckContacts(const cv::Mat1f& height_m, double u_px, double v_px, double angle_rad,
-                          const GripperPx& gripper, double px_per_m, double tip_height_m);
 
 }  // namespace softgrasp::core::fge_detail

@@ -10,8 +10,6 @@
 namespace softgrasp::core {
 namespace {
 
-using fge_detail::GripperPx;
-
 constexpr double kSlackPx = 1e-9;  // same rounding slack as fge_detail::RasteriseTemplates
 
 struct Kernels {

@@ -13,9 +13,7 @@ namespace softgrasp::core {
 namespace {
 
 using fge_detail::AngleOf;
-using fge_detail::CheckContacts;
-using fge_detail::ContactHold;
-using fge_detail::GripperPx;
+
 using fge_detail::kMaxContactChecksPerMap;
 using fge_detail::Near;
 using fge_detail::SimilarAngle;

@@ -60,6 +60,7 @@ PlanError PlanGqcnn(const PlanContext& c, Plan* plan) {
     PlannedGrasp out;
     out.grasp = g.grasp;
     out.gqcnn_pose = g.image_pose;
+    out.gqcnn_contacts = g.contacts;
     plan->grasps.push_back(std::move(out));
   }
   plan->gqcnn = GqcnnStats{p.edge_pixels, p.antipodal_pairs, p.evaluated, p.timing.sample_ms,

@@ -133,6 +133,8 @@ struct PlannedGrasp {
   /// strategy=gqcnn only: the network's P(success) (also the grasp's score) and the grasp's
   /// image pose as the network saw it (depth = z of the grasp centre, metres).
   std::optional<gqcnn::GraspImagePose> gqcnn_pose;
+  /// strategy=gqcnn only: the contact check's verdict (firm grasps rank first).
+  core::ContactHold gqcnn_contacts = core::ContactHold::kFirm;
 };
 
 /// What strategy=gqcnn did.

@@ -60,7 +60,15 @@ struct Candidate {
   GraspImagePose pose;
   double surface_depth_m = 0.0;  // highest surface between the contacts
   float quality = 0.0F;
+  core::ContactHold contacts = core::ContactHold::kFirm;
 };
+
+// Firm contacts first (all candidates are firm when the check is off), then the network's
+// quality.
+bool Better(const Candidate& a, const Candidate& b) {
+  if (a.contacts != b.contacts) return a.contacts > b.contacts;
+  return a.quality > b.quality;
+}
 
 double WrapAngle(double angle_rad) {
   angle_rad = std::fmod(angle_rad, kPi);
@@ -194,7 +202,27 @@ class Planner {
     out->pose.center_v_px = cv;
     out->pose.angle_rad = WrapAngle(std::atan2(b.v - a.v, b.u - a.u));
     out->pose.width_px = gripper_.opening_stroke_m * camera_.fx / surface;
-    return SampleDepth(out) && JawsClear(out->pose);
+    return SampleDepth(out) && Reachable(out);
+  }
+
+  // Whether the gripper can take the candidate: its open jaws reach the grasp depth, and there
+  // its fingers meet faces that hold, in the image plane (CheckContacts, which sets the
+  // candidate's contacts) and in height (ContactFacesSteep).
+  bool Reachable(Candidate* c) const {
+    if (!JawsClear(c->pose)) return false;
+    if (!params_.check_contacts) return true;
+    const double px_per_m = camera_.fx / c->pose.depth_m;
+    const core::GripperPx fingers{gripper_.opening_stroke_m * px_per_m,
+                                  gripper_.finger_width_m * px_per_m,
+                                  gripper_.finger_thickness_m * px_per_m};
+    const double tip_height_m = HeightAbove(scene_.floor, camera_, c->pose.center_u_px,
+                                            c->pose.center_v_px, c->pose.depth_m);
+    c->contacts = core::CheckContacts(scene_.height_m, c->pose.center_u_px, c->pose.center_v_px,
+                                      c->pose.angle_rad, fingers, px_per_m, tip_height_m);
+    return c->contacts != core::ContactHold::kNone &&
+           core::ContactFacesSteep(scene_.height_m, c->pose.center_u_px, c->pose.center_v_px,
+                                   c->pose.angle_rad, fingers, px_per_m, tip_height_m,
+                                   gripper_.friction_coefficient);
   }
 
   // Whether the open jaws reach the grasp depth: every surface under the two finger boxes (at
@@ -269,8 +297,7 @@ class Planner {
   // One cross-entropy round: new samples around the best of `population` (a Gaussian mixture
   // with one component per elite grasp and a shared bandwidth).
   std::vector<Candidate> Refine(std::vector<Candidate> population) {
-    std::stable_sort(population.begin(), population.end(),
-                     [](const Candidate& a, const Candidate& b) { return a.quality > b.quality; });
+    std::stable_sort(population.begin(), population.end(), Better);
     const std::size_t elites = std::clamp<std::size_t>(
         static_cast<std::size_t>(std::ceil(params_.cem_elite_fraction * population.size())), 1,
         population.size());
@@ -327,7 +354,7 @@ class Planner {
                                   std::max(c.surface_depth_m + 0.25 * params_.min_depth_offset_m,
                                            floor_z - kFloorClearanceM));
       c.pose.width_px = gripper_.opening_stroke_m * camera_.fx / c.surface_depth_m;
-      if (!JawsClear(c.pose)) continue;
+      if (!Reachable(&c)) continue;
       c.quality = 0.0F;
       out.push_back(c);
     }
@@ -444,8 +471,8 @@ core::Result<PolicyPlan> PlanGqcnnGrasps(const core::Scene& scene, const core::C
   plan.antipodal_pairs = static_cast<int>(pairs.size());
 
   // Seed candidates: distinct pairs drawn at random until seed_samples of them make a grasp the
-  // jaws can reach, trying at most kMaxPairDrawsPerSeed times as many pairs (all of them when
-  // there are few): a scene where almost nothing fits the jaws does not walk every pair.
+  // gripper can take (Reachable), trying at most kMaxPairDrawsPerSeed times as many pairs (all of
+  // them when there are few): a scene where almost nothing fits the jaws does not walk every pair.
   std::vector<std::size_t> order(pairs.size());
   std::iota(order.begin(), order.end(), 0);
   Rng draw(params.seed ^ 0x9e3779b97f4a7c15ULL);
@@ -484,7 +511,7 @@ core::Result<PolicyPlan> PlanGqcnnGrasps(const core::Scene& scene, const core::C
   std::vector<std::size_t> ranked(all.size());
   std::iota(ranked.begin(), ranked.end(), 0);
   std::stable_sort(ranked.begin(), ranked.end(),
-                   [&](std::size_t a, std::size_t b) { return all[a].quality > all[b].quality; });
+                   [&](std::size_t a, std::size_t b) { return Better(all[a], all[b]); });
   for (std::size_t index : ranked) {
     if (static_cast<int>(plan.grasps.size()) >= params.num_grasps) break;
     const Candidate& c = all[index];
@@ -497,7 +524,7 @@ core::Result<PolicyPlan> PlanGqcnnGrasps(const core::Scene& scene, const core::C
                  AngleDistance(k.grasp.angle_rad, grasp.angle_rad) < kDuplicateAngleRad;
         });
     if (duplicate) continue;
-    plan.grasps.push_back({grasp, c.pose, c.quality});
+    plan.grasps.push_back({grasp, c.pose, c.quality, c.contacts});
   }
   plan.timing.total_ms = MsSince(start);
   return plan;

@@ -16,6 +16,7 @@
 #include <span>
 #include <vector>
 
+#include "service/core/contact_check.h"
 #include "service/core/depth.h"
 #include "service/core/grasp.h"
 #include "service/core/preprocess.h"
@@ -57,6 +58,11 @@ struct PolicyParams {
   /// the fingertips, i.e. the object is wider than the stroke there or a neighbour is in the
   /// way. Dex-Net 2.0 leaves this to the network; ours learnt it too weakly (docs/gqcnn.md).
   bool check_jaw_clearance = true;
+  /// Candidates whose fingers, closing at the grasp depth, would not meet faces that hold
+  /// (core::CheckContacts, FGE's contact check: a patch of at least 5 mm on each finger) are
+  /// dropped, and firm contacts rank before stable ones whatever the network says. Slanted
+  /// faces, corners and rounded ends slip (docs/gqcnn.md, "Contacts that hold").
+  bool check_contacts = true;
   /// Grasps returned, best first, after suppressing near-duplicates.
   int num_grasps = 10;
   std::uint64_t seed = 0;
@@ -69,6 +75,8 @@ struct PolicyGrasp {
   core::Grasp grasp;  ///< score = predicted quality
   GraspImagePose image_pose;
   float quality = 0.0F;
+  /// The contact check's verdict (kFirm for every grasp when check_contacts is off).
+  core::ContactHold contacts = core::ContactHold::kFirm;
 };
 
 struct PolicyTimings {

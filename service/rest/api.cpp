@@ -52,7 +52,10 @@ json GraspToJson(const engine::PlannedGrasp& planned, int rank) {
   json gqcnn;
   if (const auto& pose = planned.gqcnn_pose) {
     // The network's input besides the crop: how deep below the camera the jaws' centre goes.
-    gqcnn = {{"predicted_quality", g.score}, {"grasp_depth_m", pose->depth_m}};
+    gqcnn = {
+        {"predicted_quality", g.score},
+        {"grasp_depth_m", pose->depth_m},
+        {"contacts", planned.gqcnn_contacts == core::ContactHold::kStable ? "stable" : "firm"}};
   }
   return {
       {"rank", rank},

@@ -476,13 +476,13 @@ cv::Mat1f Plateau(double slant_deg, int first_row) {
   return height_m;
 }
 
-fge_detail::ContactHold Hold(const cv::Mat1f& height_m) {
-  const fge_detail::GripperPx fingers{60, 15, 8};  // lines b = -7 ... 7 across the fingers
-  return fge_detail::CheckContacts(height_m, 100, 100, 0.0, fingers, 1000.0, 0.01);
+ContactHold Hold(const cv::Mat1f& height_m) {
+  const GripperPx fingers{60, 15, 8};  // lines b = -7 ... 7 across the fingers
+  return CheckContacts(height_m, 100, 100, 0.0, fingers, 1000.0, 0.01);
 }
 
 TEST(ContactCheck, FirmWhenEachFingerRestsOnHalfItsWidth) {
-  using enum fge_detail::ContactHold;
+  using enum ContactHold;
   EXPECT_EQ(Hold(Plateau(0, 0)), kFirm);
   // A slanted face: of the 15 lines, those meeting it within 2 mm of the first contact are all
   // 15 at 10 deg, 6 at 25 deg (stable: >= 5 mm; the contact sits near the face's corner), 4 at

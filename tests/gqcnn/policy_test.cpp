@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "service/core/preprocess.h"
@@ -220,6 +221,60 @@ TEST(GqcnnPolicyTest, OpenJawsMustReachTheGraspDepth) {
     if (across_box(g.grasp) && g.grasp.grasp_height_m < 0.035) ++landing;
   }
   EXPECT_GT(landing, 0);
+}
+
+// A ball of radius `radius_m` resting on the table under pixel (cu, cv).
+core::DepthImage BallScene(double cu, double cv, double radius_m) {
+  const core::Camera camera = TestCamera();
+  core::DepthImage depth{cv::Mat1f(camera.height, camera.width, static_cast<float>(kTableZ))};
+  const double centre_z = kTableZ - radius_m;
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      // The pixel's ray (x, y, 1) z meets the sphere |p - c|^2 = r^2, c = (cx, cy, 1) centre_z.
+      const double x = (u - camera.cx) / camera.fx;
+      const double y = (v - camera.cy) / camera.fy;
+      const double cx = (cu - camera.cx) / camera.fx * centre_z;
+      const double cy = (cv - camera.cy) / camera.fy * centre_z;
+      const double a = x * x + y * y + 1.0;
+      const double b = -2.0 * (x * cx + y * cy + centre_z);
+      const double c = cx * cx + cy * cy + centre_z * centre_z - radius_m * radius_m;
+      const double disc = b * b - 4.0 * a * c;
+      if (disc >= 0.0) depth.depth_m(v, u) = static_cast<float>((-b - std::sqrt(disc)) / (2 * a));
+    }
+  }
+  return depth;
+}
+
+TEST(GqcnnPolicyTest, FingersMustMeetFacesThatHold) {
+  // A 4 cm ball and a network that likes shallow grasps best: near the crown the faces at the
+  // fingertips lean back out of the friction cone (mu = 0.5: 26.6 deg) and the ball slips.
+  const double radius = 0.02;
+  const core::Scene scene = Prepared(BallScene(160, 120, radius));
+  const double crown_z = kTableZ - 2 * radius;
+  const auto shallow_first = [crown_z](std::span<const float>, std::span<const float> depths) {
+    std::vector<float> out(depths.size());
+    for (std::size_t i = 0; i < depths.size(); ++i) {
+      out[i] = static_cast<float>(std::exp(-std::max(0.0, depths[i] - crown_z) / 0.01));
+    }
+    return out;
+  };
+  // The face's lean at the fingertips' height h: asin((h - r) / r).
+  const auto lean_deg = [&](const core::Grasp& g) {
+    return std::asin(std::clamp((g.grasp_height_m - radius) / radius, -1.0, 1.0)) * 180 / kPi;
+  };
+  PolicyParams params;
+  params.num_grasps = 20;
+  auto checked = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, params, shallow_first);
+  ASSERT_TRUE(checked.ok());
+  ASSERT_FALSE(checked.value().grasps.empty());
+  for (const PolicyGrasp& g : checked.value().grasps) {
+    EXPECT_LT(lean_deg(g.grasp), 30.0) << "at " << g.grasp.grasp_height_m << " m";
+  }
+  params.check_contacts = false;
+  auto unchecked = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, params, shallow_first);
+  ASSERT_TRUE(unchecked.ok());
+  ASSERT_FALSE(unchecked.value().grasps.empty());
+  EXPECT_GT(lean_deg(unchecked.value().grasps.front().grasp), 40.0);
 }
 
 TEST(GqcnnPolicyTest, RefusesBadParametersAndBadQualityFunctions) {

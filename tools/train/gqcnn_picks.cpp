@@ -46,12 +46,15 @@ struct Planner {
   std::string name;  // "fge" or "gqcnn:<model file stem>"
   engine::Strategy strategy = engine::Strategy::kFge;
   engine::Models models;
-  bool jaw_check = true;  // gqcnn::PolicyParams::check_jaw_clearance
+  bool jaw_check = true;      // gqcnn::PolicyParams::check_jaw_clearance
+  bool contact_check = true;  // gqcnn::PolicyParams::check_contacts
 };
 
 // Per planner, one entry per scene: 1 success, 0 failure (no grasp counts as a failure).
 struct Outcomes {
   std::vector<double> success;
+  /// One record per scene: what was planned and what the simulator said (--records).
+  std::vector<json> records;
   std::map<std::string, int> outcomes;
   std::vector<double> detect_ms;
 };
@@ -90,31 +93,44 @@ void RunScene(const sim::SimScene& scene, const sim::RenderOptions& render,
     options.fge.top_k = 1;
     options.gqcnn.seed = scene.seed;
     options.gqcnn.check_jaw_clearance = planners[p].jaw_check;
+    options.gqcnn.check_contacts = planners[p].contact_check;
     options.region_of_interest = workspace;
     auto plan = engine::PlanGrasps(views.depth, render.camera, options, planners[p].models);
     out.success.push_back(0.0);
+    json& record = out.records.emplace_back(
+        json{{"scene", out.success.size() - 1}, {"planner", planners[p].name}});
+    const auto outcome = [&](const std::string& name, const std::string& reason) {
+      ++out.outcomes[name];
+      record["outcome"] = name;
+      record["reason"] = reason;
+    };
     if (!plan.ok()) {
-      ++out.outcomes["plan_error"];
+      outcome("plan_error", plan.error().message);
       continue;
     }
     out.detect_ms.push_back(plan.value().timing.total_ms);
+    record["plan_ms"] = plan.value().timing.total_ms;
     if (plan.value().grasps.empty()) {
-      ++out.outcomes["no_grasp"];
+      outcome("no_grasp", "");
       continue;
     }
     if (!raycaster.ok()) {
-      ++out.outcomes["error"];
+      outcome("error", raycaster.error().message);
       continue;
     }
-    auto exec = sim::ExecuteGrasp(
-        scene, raycaster.value(),
-        sim::SimGraspFromCamera(plan.value().grasps.front().grasp, render.world_from_camera),
-        gripper);
+    const core::Grasp& best = plan.value().grasps.front().grasp;
+    record["grasp"] = {{"score", Num(best.score)},
+                       {"center_px", {best.center_u_px, best.center_v_px}},
+                       {"angle_rad", best.angle_rad},
+                       {"p_CG_m", best.p_CG_m},
+                       {"grasp_height_m", Num(best.grasp_height_m)}};
+    auto exec = sim::ExecuteGrasp(scene, raycaster.value(),
+                                  sim::SimGraspFromCamera(best, render.world_from_camera), gripper);
     if (!exec.ok()) {
-      ++out.outcomes["error"];
+      outcome("error", exec.error().message);
       continue;
     }
-    ++out.outcomes[sim::GraspOutcomeName(exec.value().outcome)];
+    outcome(sim::GraspOutcomeName(exec.value().outcome), exec.value().reason);
     out.success.back() = exec.value().succeeded() ? 1.0 : 0.0;
   }
 }
@@ -172,12 +188,15 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
   long long seed = 0;
   double camera_height_m = 0.70;
   std::string out_path;
+  std::string records_path;
   const bool without_jaw_check = args.Flag("--also-without-jaw-check");
+  const bool without_contact_check = args.Flag("--also-without-contact-check");
   args.Count("--single-scenes", &single_scenes, 10000);
   args.Count("--clutter-scenes", &clutter_scenes, 10000);
   args.Int("--seed", 0, cli::kNoLimit, &seed);
   args.Number("--camera-height", cli::Bounds::Closed(0.3, 1.5), &camera_height_m);
   args.Text("--out", &out_path);
+  args.Text("--records", &records_path);
   if (auto error = args.Finish()) return Fail(error->message);
   if (model_paths.empty()) return Fail("--model FILE is required (repeat it to compare models)");
   if (single_scenes > 0 && meshes_dir.empty()) {
@@ -194,6 +213,12 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
     Planner p{"gqcnn:" + fs::path(path).stem().string(), engine::Strategy::kGqcnn, {}};
     p.models.gqcnn = std::make_shared<const models::GqcnnModel>(std::move(model).value());
     planners.push_back(p);
+    if (without_contact_check) {  // the same network, contacts not checked
+      Planner q = p;
+      q.name += ":no-contact-check";
+      q.contact_check = false;
+      planners.push_back(std::move(q));
+    }
     if (without_jaw_check) {  // the same network, candidates not checked for the open jaws
       p.name += ":no-jaw-check";
       p.jaw_check = false;
@@ -236,6 +261,17 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
                  {"seed", seed},
                  {"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}}};
   json sets = json::array();
+  std::string records;  // JSON lines, scene by scene, planner by planner
+  const auto add_records = [&](const SceneSet& set) {
+    for (std::size_t scene = 0; scene < set.scene_objects.size(); ++scene) {
+      for (const Outcomes& planner : set.per_planner) {
+        json r = planner.records[scene];
+        r["set"] = set.name;
+        r["objects"] = set.scene_objects[scene];
+        records += r.dump() + "\n";
+      }
+    }
+  };
   if (single_scenes > 0) {
     SceneSet set{"single_heldout", std::vector<Outcomes>(planners.size()), {}};
     sim::Support table;
@@ -261,6 +297,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
     }
     std::cerr << "\n";
     sets.push_back(Report(set, planners));
+    add_records(set);
   }
   if (clutter_scenes > 0) {
     SceneSet set{"clutter_catalogue_val", std::vector<Outcomes>(planners.size()), {}};
@@ -285,8 +322,14 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
     }
     std::cerr << "\n";
     sets.push_back(Report(set, planners));
+    add_records(set);
   }
   report["sets"] = sets;
+  if (!records_path.empty()) {
+    if (auto error = cli::WriteFile(records_path, records, cli::Parents::kCreate)) {
+      return Fail(error->message);
+    }
+  }
   const std::string text = report.dump(1) + "\n";
   if (out_path.empty()) {
     std::cout << text;

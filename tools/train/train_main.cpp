@@ -58,10 +58,14 @@ constexpr const char* kUsage =
     "  deformability (both target policies) on the same scenes; JSON with 95 % intervals.\n"
     "       softgrasp-train gqcnn-picks --model MODEL [--model MODEL2...] [--meshes DIR]\n"
     "                                [--single-scenes N] [--clutter-scenes N] [--seed S]\n"
-    "                                [--camera-height M] [--also-without-jaw-check] [--out FILE]\n"
+    "                                [--camera-height M] [--also-without-jaw-check]\n"
+    "                                [--also-without-contact-check] [--out FILE]\n"
+    "                                [--records FILE]\n"
     "  Simulated picks (docs/gqcnn.md): strategy=gqcnn with each model against classic FGE on\n"
     "  the same scenes, single held-out objects (--meshes, rescaled as Dex-Net does) on a\n"
-    "  table and validation catalogue clutter in a bin; JSON with 95 % paired intervals.\n";
+    "  table and validation catalogue clutter in a bin; JSON with 95 % paired intervals.\n"
+    "  --records writes one JSON line per scene and planner: the grasp executed, the\n"
+    "  simulator's outcome and its reason.\n";
 
 int Fail(const std::string& message) {
   std::cerr << "softgrasp-train: " << message << "\n";
