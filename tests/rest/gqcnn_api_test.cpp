@@ -104,9 +104,9 @@ TEST_F(GqcnnApiTest, RanksGraspsMostlyOnTheObjectByPredictedQuality) {
       EXPECT_LT(depth, 0.9);
       EXPECT_NEAR(g["pose"]["position_m"][2].get<double>(), depth, 1e-6);
     }
-    // A single object on a table: most of the five best grasps are centred on it. (Not always
-    // the best one: on frame 2 a grasp beside the finger tip scores 0.50 against the object's
-    // 0.49, docs/gqcnn.md; a segmask keeps every grasp on the object, next test.)
+    // A single object on a table: most of the five best grasps are centred on it. (Not all:
+    // on frame 2 two grasps sit beside the gripper's finger tip, docs/gqcnn.md; a segmask
+    // keeps every grasp on the object, next test.)
     int on_object = 0;
     for (const json& g : body["grasps"]) on_object += CentreOnMask(g, Segmask(i)) ? 1 : 0;
     EXPECT_GE(on_object, 3) << body["grasps"].dump();
