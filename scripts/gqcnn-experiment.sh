@@ -8,7 +8,8 @@
 #   bash scripts/gqcnn-experiment.sh OUT_DIR        (about 40 min on 2 cores)
 #
 # Writes OUT_DIR/<source>/ (datasets), OUT_DIR/models/<source>.pt (+ cards and curves),
-# OUT_DIR/eval/<source>.json (held-out classification) and OUT_DIR/picks.json. Every step is
+# OUT_DIR/eval/<source>.json (held-out classification) and OUT_DIR/picks.json (+ picks.jsonl,
+# one line per scene and planner with the simulator's reason). Every step is
 # skipped when its output is there, so a killed run is resumed by running it again. The
 # shipped model is the fractal one: `cp OUT_DIR/models/fractal-030.* models/` renamed to gqcnn.*.
 # Sizes and budget can be changed with the environment variables below (a smoke run:
@@ -80,6 +81,7 @@ if [ ! -f "$out/picks.json" ]; then
   models=()
   for s in $sources; do models+=(--model "$out/models/$s.pt"); done
   "$train" gqcnn-picks "${models[@]}" --meshes "$heldout_meshes" \
-    --single-scenes "$pick_scenes" --clutter-scenes "$clutter_scenes" --seed 7 --out "$out/picks.json"
+    --single-scenes "$pick_scenes" --clutter-scenes "$clutter_scenes" --seed 7 \
+    --records "$out/picks.jsonl" --out "$out/picks.json"
 fi
 echo "gqcnn-experiment: results in $out/eval/*.json and $out/picks.json"

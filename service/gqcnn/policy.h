@@ -58,10 +58,11 @@ struct PolicyParams {
   /// the fingertips, i.e. the object is wider than the stroke there or a neighbour is in the
   /// way. Dex-Net 2.0 leaves this to the network; ours learnt it too weakly (docs/gqcnn.md).
   bool check_jaw_clearance = true;
-  /// Candidates whose fingers, closing at the grasp depth, would not meet faces that hold
-  /// (core::CheckContacts, FGE's contact check: a patch of at least 5 mm on each finger) are
-  /// dropped, and firm contacts rank before stable ones whatever the network says. Slanted
-  /// faces, corners and rounded ends slip (docs/gqcnn.md, "Contacts that hold").
+  /// Candidates whose fingers, closing at the grasp depth, would not meet faces that hold are
+  /// dropped: core::CheckContacts (FGE's contact check: a patch of at least 5 mm on each
+  /// finger) and core::ContactFacesSteep (the faces at the fingertips steep enough for the
+  /// gripper's friction cone). Firm contacts rank before stable ones whatever the network says.
+  /// Slanted faces, corners and rounded tops slip (docs/gqcnn.md, "Contacts that hold").
   bool check_contacts = true;
   /// Grasps returned, best first, after suppressing near-duplicates.
   int num_grasps = 10;

@@ -33,6 +33,18 @@ jq -e '[.sets[].planners | length] == [6, 6]' "$work/out/picks.json" >/dev/null 
   fail "picks.json does not compare FGE with the five models in both scene sets"
 jq -e '[.sets[].planners[].scenes] | all(. == 1)' "$work/out/picks.json" >/dev/null ||
   fail "picks.json: not one scene per set"
+# One record per scene and planner, each with the simulator's outcome and its reason.
+[ "$(wc -l < "$work/out/picks.jsonl")" = 12 ] || fail "picks.jsonl: not 12 records"
+jq -s -e 'all(.[]; (.outcome | type == "string") and (.reason | type == "string"))' \
+  "$work/out/picks.jsonl" >/dev/null || fail "picks.jsonl: a record without outcome or reason"
+# The same network without each of the policy's checks, beside it on the same scene.
+"$SOFTGRASP_TRAIN" gqcnn-picks --model "$work/out/models/fractal-030.pt" --clutter-scenes 1 \
+  --also-without-contact-check --also-without-jaw-check --out "$work/checks.json" \
+  --records "$work/checks.jsonl" 2>/dev/null
+jq -e '[.sets[0].planners[].planner] == ["fge", "gqcnn:fractal-030",
+  "gqcnn:fractal-030:no-contact-check", "gqcnn:fractal-030:no-jaw-check"]' "$work/checks.json" \
+  >/dev/null || fail "gqcnn-picks: not the planners without each check"
+[ "$(wc -l < "$work/checks.jsonl")" = 4 ] || fail "checks.jsonl: not 4 records"
 
 # A rerun finds everything done and changes nothing.
 before="$(cd "$work/out" && find . -type f -newer "$work/out/picks.json" | wc -l)"
