@@ -4,12 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include "service/core/fge_fast.h"
 #include "service/core/fge_geometry.h"
+#include "service/core/finger_clearance.h"
 
 namespace softgrasp::core {
 namespace {
@@ -68,9 +71,11 @@ struct MapSelection {
   std::vector<Candidate> stable;
 };
 
-// Per map: best first, spatial NMS, contact check; keeps at most top_k of each kind.
+// Per map: best first, spatial NMS, contact check, finger clearance (`clear`); keeps at most
+// top_k of each kind.
 MapSelection SelectInMap(std::vector<Candidate> peaks, const Scene& scene,
-                         const ContactGeometry& geo, double angle_rad, const FgeParams& params) {
+                         const ContactGeometry& geo, double angle_rad, const FgeParams& params,
+                         const std::function<bool(const Candidate&)>& clear) {
   std::sort(peaks.begin(), peaks.end(), Better);
   MapSelection out;
   const auto near_one_of = [&](const std::vector<Candidate>& kept, const Candidate& c) {
@@ -87,9 +92,9 @@ MapSelection SelectInMap(std::vector<Candidate> peaks, const Scene& scene,
     const ContactHold hold = CheckContacts(scene.height_m, c.u_px, c.v_px, angle_rad, geo.gripper,
                                            geo.px_per_m, geo.tip_height_m);
     if (hold == ContactHold::kFirm) {
-      out.firm.push_back(c);
+      if (clear(c)) out.firm.push_back(c);
     } else if (hold == ContactHold::kStable && static_cast<int>(out.stable.size()) < params.top_k &&
-               !near_one_of(out.stable, c)) {
+               !near_one_of(out.stable, c) && clear(c)) {
       out.stable.push_back(c);
     }
   }
@@ -153,6 +158,14 @@ std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, con
       fge_detail::SearchSlices(scene.height_m, scene.contact_allowed,
                                fge_detail::PxPerMetre(scene.floor, camera, 0), gripper, params);
   const std::vector<Slice>& slices = search.slices;
+  std::optional<FingerClearance> clearance;
+  if (params.check_finger_clearance) clearance.emplace(scene, camera);
+  const auto clear = [&](const Candidate& c) {
+    return !clearance ||
+           clearance->Clear(MakeGrasp(c, slices[static_cast<std::size_t>(c.slice_pos)], scene,
+                                      camera, gripper, params),
+                            gripper);
+  };
   std::vector<Candidate> firm;    // every map's firm candidates so far
   std::vector<Candidate> stable;  // and those whose contacts are only stable
   std::vector<Candidate> ranked;
@@ -178,7 +191,8 @@ std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, con
           peaks.push_back(
               {m.u_px, m.v_px, m.score, ai, static_cast<int>(first + si), static_cast<int>(b)});
         }
-        MapSelection selected = SelectInMap(std::move(peaks), scene, geometry[si], angle, params);
+        MapSelection selected =
+            SelectInMap(std::move(peaks), scene, geometry[si], angle, params, clear);
         firm.insert(firm.end(), selected.firm.begin(), selected.firm.end());
         stable.insert(stable.end(), selected.stable.begin(), selected.stable.end());
       }

@@ -24,6 +24,9 @@ struct FgeParams {
                                      ///< means two surfaces (a seam): rejected
   int top_k = 5;                     ///< grasps returned, best first
   double nms_radius_px = 10;         ///< grasps closer than this (and at a similar angle) merge
+  /// Candidates whose fingers would descend through a surface the camera saw (FingerClearance,
+  /// tested in 3-D) are dropped before they count towards top_k or suppress a neighbour.
+  bool check_finger_clearance = true;
 };
 
 /// The per-angle maps FGE computes, exposed so the fast and the reference implementation can be

@@ -16,7 +16,6 @@
 
 #include "service/core/fge_geometry.h"
 #include "service/core/fge_stiffness.h"
-#include "service/core/finger_clearance.h"
 
 namespace softgrasp::core {
 namespace {
@@ -413,7 +412,6 @@ int PlanOpenings(const Scene& scene, const TargetView& view, bool pressed, const
                  const cv::Mat1f& stiffness, const Gripper& gripper, const StiffnessFgeParams& sp,
                  const DeformabilityParams& params, int id, const cv::Mat1w& labels,
                  double* best_deformability, DeformabilityResult* result) {
-  const FingerClearance clearance(view.scene, camera);
   const fge_detail::SliceSearch search =
       view.free_space ? StiffnessSliceSearch(view.scene, camera, gripper, sp, *view.free_space)
                       : StiffnessSliceSearch(view.scene, camera, gripper, sp);
@@ -429,7 +427,6 @@ int PlanOpenings(const Scene& scene, const TargetView& view, bool pressed, const
       std::erase_if(
           grasps, [&](const Grasp& g) { return SoftNeighbourBetweenFingers(scene, view.soft, g); });
     }
-    std::erase_if(grasps, [&](const Grasp& g) { return !clearance.Clear(g, gripper); });
     if (grasps.empty()) continue;
     const double found = 1.0 - grasps.front().mean_stiffness;
     if (result->target_id > 0 && !(found < *best_deformability - params.tie_tolerance)) {
@@ -590,9 +587,7 @@ DeformabilityResult DetectGraspsDeformability(const Scene& scene, const Camera& 
     whole.fge = params.fge;
     whole.centre_weight = params.centre_weight;
     whole.key_step = params.deformability_step;
-    const FingerClearance clearance(scene, camera);
     for (const Grasp& g : DetectGraspsStiffness(scene, camera, stiffness, gripper, whole)) {
-      if (!clearance.Clear(g, gripper)) continue;
       DeformabilityGrasp dg;
       dg.grasp = g;
       const int u =

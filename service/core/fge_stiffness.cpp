@@ -4,10 +4,12 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 
 #include "service/core/fge_fast.h"
 #include "service/core/fge_geometry.h"
+#include "service/core/finger_clearance.h"
 
 namespace softgrasp::core {
 namespace {
@@ -128,10 +130,10 @@ Grasp MakeGrasp(const Candidate& c, const SliceData& sd, const Scene& scene, con
   return grasp;
 }
 
-// Per map (angle, slice): best key first, NMS, contact check, at most top_k kept and
-// kMaxContactChecksPerMap checks; then the maps' grasps ranked together with NMS across similar
-// angles. Popping all maps' candidates in one key order gives exactly that while checking only
-// the candidates that can still make the top_k. Only firm contacts count (ContactHold); grasps
+// Per map (angle, slice): best key first, NMS, contact check, finger clearance, at most top_k
+// kept and kMaxContactChecksPerMap checks; then the maps' grasps ranked together with NMS across
+// similar angles. Popping all maps' candidates in one key order gives exactly that while checking
+// only the candidates that can still make the top_k. Only firm contacts count (ContactHold); grasps
 // whose contacts are only stable are kept aside, ranked the same way, and returned when no firm
 // one is found.
 std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<SliceData>& slices,
@@ -153,6 +155,11 @@ std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<Sl
     if (suppressed) return;
     to.kept.push_back(c);
     to.grasps.push_back(MakeGrasp(c, sd, scene, camera, gripper, fp));
+  };
+  std::optional<FingerClearance> clearance;
+  if (fp.check_finger_clearance) clearance.emplace(scene, camera);
+  const auto clear = [&](const Candidate& c, const SliceData& sd) {
+    return !clearance || clearance->Clear(MakeGrasp(c, sd, scene, camera, gripper, fp), gripper);
   };
   std::vector<MapState> maps(static_cast<std::size_t>(fp.num_angles) * slices.size());
   const auto worse = [](const Candidate& a, const Candidate& b) { return Better(b, a); };
@@ -177,9 +184,11 @@ std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<Sl
         CheckContacts(scene.height_m, c.u_px, c.v_px, AngleOf(c.angle_index, fp.num_angles),
                       sd.gripper, sd.px_per_m, sd.slice.tip_height_m);
     if (hold == ContactHold::kFirm) {
+      if (!clear(c, sd)) continue;
       map.kept.push_back(c);
       add(firm, c, sd);
-    } else if (hold == ContactHold::kStable && static_cast<int>(stable.kept.size()) < fp.top_k) {
+    } else if (hold == ContactHold::kStable && static_cast<int>(stable.kept.size()) < fp.top_k &&
+               clear(c, sd)) {
       add(stable, c, sd);
     }
   }

@@ -6,7 +6,6 @@
 #include <string>
 
 #include "service/core/fge_stiffness.h"
-#include "service/core/finger_clearance.h"
 
 namespace softgrasp::engine {
 namespace {
@@ -31,10 +30,8 @@ struct PlanContext {
 using PlanError = std::optional<core::Error>;
 
 PlanError PlanFge(const PlanContext& c, Plan* plan) {
-  const core::FingerClearance clearance(c.scene, c.camera);
   for (const core::Grasp& g :
        core::DetectGraspsFge(c.scene, c.camera, c.options.gripper, c.options.fge)) {
-    if (!clearance.Clear(g, c.options.gripper)) continue;
     PlannedGrasp p;
     p.grasp = g;
     if (!c.stiffness.empty()) {
@@ -71,10 +68,8 @@ PlanError PlanGqcnn(const PlanContext& c, Plan* plan) {
 PlanError PlanStiffness(const PlanContext& c, Plan* plan) {
   core::StiffnessFgeParams params = c.options.stiffness;
   params.fge = c.options.fge;
-  const core::FingerClearance clearance(c.scene, c.camera);
   for (const core::Grasp& g :
        core::DetectGraspsStiffness(c.scene, c.camera, c.stiffness, c.options.gripper, params)) {
-    if (!clearance.Clear(g, c.options.gripper)) continue;
     PlannedGrasp p;
     p.grasp = g;
     plan->grasps.push_back(std::move(p));
