@@ -32,6 +32,7 @@ struct Candidate {
   int angle_index = 0;
   int slice_pos = 0;  // position in the slice list; slices are ordered highest first
   int batch = 0;      // slice batch (SliceBatches): grasps of a higher batch always rank first
+  int clear = -1;     // finger clearance: -1 not tested yet, 0 blocked, 1 clear
 };
 
 // Best first: higher batch, higher score, then higher slice, then a fixed order (angle, row,
@@ -71,11 +72,9 @@ struct MapSelection {
   std::vector<Candidate> stable;
 };
 
-// Per map: best first, spatial NMS, contact check, finger clearance (`clear`); keeps at most
-// top_k of each kind.
+// Per map: best first, spatial NMS, contact check; keeps at most top_k of each kind.
 MapSelection SelectInMap(std::vector<Candidate> peaks, const Scene& scene,
-                         const ContactGeometry& geo, double angle_rad, const FgeParams& params,
-                         const std::function<bool(const Candidate&)>& clear) {
+                         const ContactGeometry& geo, double angle_rad, const FgeParams& params) {
   std::sort(peaks.begin(), peaks.end(), Better);
   MapSelection out;
   const auto near_one_of = [&](const std::vector<Candidate>& kept, const Candidate& c) {
@@ -92,24 +91,31 @@ MapSelection SelectInMap(std::vector<Candidate> peaks, const Scene& scene,
     const ContactHold hold = CheckContacts(scene.height_m, c.u_px, c.v_px, angle_rad, geo.gripper,
                                            geo.px_per_m, geo.tip_height_m);
     if (hold == ContactHold::kFirm) {
-      if (clear(c)) out.firm.push_back(c);
+      out.firm.push_back(c);
     } else if (hold == ContactHold::kStable && static_cast<int>(out.stable.size()) < params.top_k &&
-               !near_one_of(out.stable, c) && clear(c)) {
+               !near_one_of(out.stable, c)) {
       out.stable.push_back(c);
     }
   }
   return out;
 }
 
-std::vector<Candidate> RankGlobally(std::vector<Candidate> all, const FgeParams& params) {
+// Best first, NMS across similar angles, at most top_k. A candidate whose fingers are blocked
+// (`clear`, tested only when it would be kept, and remembered in `all`) neither counts nor
+// suppresses a neighbour.
+std::vector<Candidate> RankGlobally(std::vector<Candidate>& all, const FgeParams& params,
+                                    const std::function<bool(const Candidate&)>& clear) {
   std::sort(all.begin(), all.end(), Better);
   std::vector<Candidate> kept;
-  for (const Candidate& c : all) {
+  for (Candidate& c : all) {
     if (static_cast<int>(kept.size()) >= params.top_k) break;
+    if (c.clear == 0) continue;
     const bool suppressed = std::any_of(kept.begin(), kept.end(), [&](const Candidate& k) {
       return Near(c, k, params.nms_radius_px) && SimilarAngle(c, k, params.num_angles);
     });
-    if (!suppressed) kept.push_back(c);
+    if (suppressed) continue;
+    if (c.clear < 0) c.clear = clear(c) ? 1 : 0;
+    if (c.clear == 1) kept.push_back(c);
   }
   return kept;
 }
@@ -191,14 +197,14 @@ std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, con
           peaks.push_back(
               {m.u_px, m.v_px, m.score, ai, static_cast<int>(first + si), static_cast<int>(b)});
         }
-        MapSelection selected =
-            SelectInMap(std::move(peaks), scene, geometry[si], angle, params, clear);
+        MapSelection selected = SelectInMap(std::move(peaks), scene, geometry[si], angle, params);
         firm.insert(firm.end(), selected.firm.begin(), selected.firm.end());
         stable.insert(stable.end(), selected.stable.begin(), selected.stable.end());
       }
     }
-    // Firm contacts first: stable-only ones are grasps only when no map has a firm one.
-    ranked = RankGlobally(firm.empty() ? stable : firm, params);
+    // Firm contacts first: stable-only ones are grasps only when no map has a clear firm one.
+    ranked = RankGlobally(firm, params, clear);
+    if (ranked.empty()) ranked = RankGlobally(stable, params, clear);
     if (static_cast<int>(ranked.size()) >= params.top_k) break;
   }
   std::vector<Grasp> grasps;

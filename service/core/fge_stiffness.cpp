@@ -147,19 +147,22 @@ std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<Sl
     std::vector<Candidate> kept;
     std::vector<Grasp> grasps;
   };
-  // Adds c to `to` unless a kept grasp there is near with a similar angle.
-  const auto add = [&](Ranked& to, const Candidate& c, const SliceData& sd) {
-    const bool suppressed = std::any_of(to.kept.begin(), to.kept.end(), [&](const Candidate& k) {
+  // Whether a grasp kept in `to` is near c with a similar angle (c is then not a grasp).
+  const auto suppressed = [&](const Ranked& to, const Candidate& c) {
+    return std::any_of(to.kept.begin(), to.kept.end(), [&](const Candidate& k) {
       return Near(c, k, fp.nms_radius_px) && SimilarAngle(c, k, fp.num_angles);
     });
-    if (suppressed) return;
-    to.kept.push_back(c);
-    to.grasps.push_back(MakeGrasp(c, sd, scene, camera, gripper, fp));
   };
+  // The 3-D finger clearance, tested only for a candidate that would become a grasp: a blocked
+  // one neither counts nor suppresses a neighbour.
   std::optional<FingerClearance> clearance;
   if (fp.check_finger_clearance) clearance.emplace(scene, camera);
   const auto clear = [&](const Candidate& c, const SliceData& sd) {
     return !clearance || clearance->Clear(MakeGrasp(c, sd, scene, camera, gripper, fp), gripper);
+  };
+  const auto add = [&](Ranked& to, const Candidate& c, const SliceData& sd) {
+    to.kept.push_back(c);
+    to.grasps.push_back(MakeGrasp(c, sd, scene, camera, gripper, fp));
   };
   std::vector<MapState> maps(static_cast<std::size_t>(fp.num_angles) * slices.size());
   const auto worse = [](const Candidate& a, const Candidate& b) { return Better(b, a); };
@@ -184,11 +187,12 @@ std::vector<Grasp> SelectGrasps(std::vector<Candidate> all, const std::vector<Sl
         CheckContacts(scene.height_m, c.u_px, c.v_px, AngleOf(c.angle_index, fp.num_angles),
                       sd.gripper, sd.px_per_m, sd.slice.tip_height_m);
     if (hold == ContactHold::kFirm) {
-      if (!clear(c, sd)) continue;
+      const bool near_kept = suppressed(firm, c);
+      if (!near_kept && !clear(c, sd)) continue;
       map.kept.push_back(c);
-      add(firm, c, sd);
+      if (!near_kept) add(firm, c, sd);
     } else if (hold == ContactHold::kStable && static_cast<int>(stable.kept.size()) < fp.top_k &&
-               clear(c, sd)) {
+               !suppressed(stable, c) && clear(c, sd)) {
       add(stable, c, sd);
     }
   }
