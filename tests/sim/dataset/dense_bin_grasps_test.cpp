@@ -3,11 +3,15 @@
 // floor, and FGE must return grasps. The scenes are those of the dataset with seed 101 (val split)
 // in which either used to fail: the floor fit tilted through the pile (scenes 0, 5, 10) or filled
 // sensor dropouts along object edges were taken for seams (17, 24). docs/fge.md has the figures
-// for the whole set.
+// for the whole set. Further down: noisy frames as the CLI writes them, from close and from the
+// default camera.
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
 
 #include "service/core/fge.h"
 #include "service/core/finger_clearance.h"
@@ -19,37 +23,46 @@
 namespace softgrasp::sim {
 namespace {
 
-constexpr double kCameraHeightM = 0.32;
+constexpr double kCloseCameraM = 0.32;
 constexpr double kFloorTiltTolRad = 0.03;  // 1.7 deg; the old fits were tilted by 15-60 deg
 constexpr double kFloorDistanceTolM = 0.003;
 
-class DenseBinFromClose : public ::testing::TestWithParam<int> {};
+// A val-split bin of 15-30 objects, seen straight down from `camera_height_m`, its depth as the
+// dataset stores it (whole millimetres, 0 = missing), preprocessed as the service does.
+struct DenseFrame {
+  core::Scene scene;
+  core::Camera camera;
+};
 
-TEST_P(DenseBinFromClose, FloorIsFoundAndFgeReturnsGrasps) {
+DenseFrame MakeDenseFrame(std::uint64_t dataset_seed, int index, double camera_height_m,
+                          bool noise) {
   SceneSpec spec;
   spec.min_objects = 15;
   spec.max_objects = 30;
   spec.split = ShapeSplit::kVal;
-  spec.render.world_from_camera = OverheadCameraPose(kCameraHeightM);
-  const auto generated = GenerateScene(spec, SceneSeed(101, GetParam(), ShapeSplit::kVal));
-  ASSERT_TRUE(generated.ok()) << generated.error().message;
-  ASSERT_GE(generated.value().scene.objects.size(), 12u);
-
-  // As the dataset stores it: whole millimetres, 0 = missing.
+  spec.render.world_from_camera = OverheadCameraPose(camera_height_m);
+  spec.render.noise.enabled = noise;
+  const auto generated = GenerateScene(spec, SceneSeed(dataset_seed, index, ShapeSplit::kVal));
+  if (!generated.ok()) throw std::runtime_error(generated.error().message);
+  if (generated.value().scene.objects.size() < 12u) throw std::runtime_error("not a dense bin");
   core::DepthImage depth;
   DepthToMillimetres(generated.value().views.depth.depth_m).convertTo(depth.depth_m, CV_32F, 1e-3);
   depth.depth_m.setTo(std::numeric_limits<float>::quiet_NaN(), depth.depth_m == 0.0f);
-  const auto scene = core::Preprocess(depth, spec.render.camera);
-  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  auto scene = core::Preprocess(depth, spec.render.camera);
+  if (!scene.ok()) throw std::runtime_error(scene.error().message);
+  return {std::move(scene).value(), spec.render.camera};
+}
 
-  // The camera looks straight down at the support's top (z = 0 in W) from kCameraHeightM.
-  const core::Plane& floor = scene.value().floor;
+class DenseBinFromClose : public ::testing::TestWithParam<int> {};
+
+TEST_P(DenseBinFromClose, FloorIsFoundAndFgeReturnsGrasps) {
+  const DenseFrame f = MakeDenseFrame(101, GetParam(), kCloseCameraM, /*noise=*/false);
+  // The camera looks straight down at the support's top (z = 0 in W) from kCloseCameraM.
+  const core::Plane& floor = f.scene.floor;
   EXPECT_LT(std::acos(std::min(1.0, -floor.n[2])), kFloorTiltTolRad)
       << "normal " << floor.n[0] << " " << floor.n[1] << " " << floor.n[2];
-  EXPECT_NEAR(floor.d, kCameraHeightM, kFloorDistanceTolM);
-
-  const auto grasps = core::DetectGraspsFge(scene.value(), spec.render.camera, core::Gripper{});
-  EXPECT_FALSE(grasps.empty());
+  EXPECT_NEAR(floor.d, kCloseCameraM, kFloorDistanceTolM);
+  EXPECT_FALSE(core::DetectGraspsFge(f.scene, f.camera, core::Gripper{}).empty());
 }
 
 INSTANTIATE_TEST_SUITE_P(Seed101, DenseBinFromClose, ::testing::Values(0, 5, 10, 17, 24));
@@ -60,60 +73,34 @@ INSTANTIATE_TEST_SUITE_P(Seed101, DenseBinFromClose, ::testing::Values(0, 5, 10,
 class NoisyDenseBinFromClose : public ::testing::TestWithParam<int> {};
 
 TEST_P(NoisyDenseBinFromClose, FgeDropsBlockedCandidatesBeforeTopK) {
-  SceneSpec spec;
-  spec.min_objects = 15;
-  spec.max_objects = 30;
-  spec.split = ShapeSplit::kVal;
-  spec.render.world_from_camera = OverheadCameraPose(kCameraHeightM);
-  spec.render.noise.enabled = true;
-  const auto generated = GenerateScene(spec, SceneSeed(101, GetParam(), ShapeSplit::kVal));
-  ASSERT_TRUE(generated.ok()) << generated.error().message;
-  core::DepthImage depth;
-  DepthToMillimetres(generated.value().views.depth.depth_m).convertTo(depth.depth_m, CV_32F, 1e-3);
-  depth.depth_m.setTo(std::numeric_limits<float>::quiet_NaN(), depth.depth_m == 0.0f);
-  const auto scene = core::Preprocess(depth, spec.render.camera);
-  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  const DenseFrame f = MakeDenseFrame(101, GetParam(), kCloseCameraM, /*noise=*/true);
   const core::Gripper gripper;
-  const core::FingerClearance clearance(scene.value(), spec.render.camera);
-
+  const core::FingerClearance clearance(f.scene, f.camera);
   core::FgeParams params;  // top_k 5, as the service answers
   params.check_finger_clearance = false;
-  const auto unchecked = core::DetectGraspsFge(scene.value(), spec.render.camera, gripper, params);
+  const auto unchecked = core::DetectGraspsFge(f.scene, f.camera, gripper, params);
   ASSERT_FALSE(unchecked.empty());
   for (const core::Grasp& g : unchecked) {
     EXPECT_FALSE(clearance.Clear(g, gripper)) << "the frame no longer tests the case";
   }
   params.check_finger_clearance = true;
-  const auto grasps = core::DetectGraspsFge(scene.value(), spec.render.camera, gripper, params);
+  const auto grasps = core::DetectGraspsFge(f.scene, f.camera, gripper, params);
   EXPECT_FALSE(grasps.empty());
   for (const core::Grasp& g : grasps) EXPECT_TRUE(clearance.Clear(g, gripper));
 }
 
 INSTANTIATE_TEST_SUITE_P(Seed101, NoisyDenseBinFromClose, ::testing::Values(16, 21));
 
-// The simulator's default camera (0.55 m): dense bins of 15-30 objects whose piles reach the
-// walls, as `softgrasp-sim generate --objects 15-30` writes them (noise on). On 200 such frames
-// (seeds 102 and 103) every one gets grasps (docs/fge.md); three of them are held here.
+// The simulator's default camera (0.55 m), noise on: on 200 such frames (seeds 102 and 103)
+// every one gets grasps (docs/fge.md); three of them are held here.
 class NoisyDenseBinDefaultCamera : public ::testing::TestWithParam<int> {};
 
 TEST_P(NoisyDenseBinDefaultCamera, FgeReturnsClearGrasps) {
-  SceneSpec spec;
-  spec.min_objects = 15;
-  spec.max_objects = 30;
-  spec.split = ShapeSplit::kVal;
-  spec.render.noise.enabled = true;
-  const auto generated = GenerateScene(spec, SceneSeed(102, GetParam(), ShapeSplit::kVal));
-  ASSERT_TRUE(generated.ok()) << generated.error().message;
-  ASSERT_GE(generated.value().scene.objects.size(), 12u);
-  core::DepthImage depth;
-  DepthToMillimetres(generated.value().views.depth.depth_m).convertTo(depth.depth_m, CV_32F, 1e-3);
-  depth.depth_m.setTo(std::numeric_limits<float>::quiet_NaN(), depth.depth_m == 0.0f);
-  const auto scene = core::Preprocess(depth, spec.render.camera);
-  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  const DenseFrame f = MakeDenseFrame(102, GetParam(), 0.55, /*noise=*/true);
   const core::Gripper gripper;
-  const auto grasps = core::DetectGraspsFge(scene.value(), spec.render.camera, gripper);
+  const auto grasps = core::DetectGraspsFge(f.scene, f.camera, gripper);
   EXPECT_EQ(grasps.size(), 5u);
-  const core::FingerClearance clearance(scene.value(), spec.render.camera);
+  const core::FingerClearance clearance(f.scene, f.camera);
   for (const core::Grasp& g : grasps) EXPECT_TRUE(clearance.Clear(g, gripper));
 }
 
