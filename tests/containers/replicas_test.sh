@@ -144,10 +144,14 @@ sender=$!
   ct_in client curl -s -m 2 -o /dev/null http://service-1:8080/healthz || echo "killed" >"$CT_WORK/killed"
   sleep "$((load_s / 3))"
   start_service service-1
+  # This subshell's CT_PID is its own copy: hand the new container's process to the script, or
+  # the cleanup would kill only the old one and leave this one running.
+  echo "${CT_PID[service-1]}" >"$CT_WORK/service-1.pid"
 ) &
 killer=$!
 read -r requests _ non2xx errors <<<"$(load "$load_s")"
 wait "$killer"
+CT_PID[service-1]="$(cat "$CT_WORK/service-1.pid")"
 wait "$sender"
 [ -f "$CT_WORK/killed" ] || ct_fail "service-1 still answered after it was killed"
 ct_wait_http client http://service-1:8080/healthz 60
