@@ -16,6 +16,7 @@
 #include "service/models/gqcnn_model.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
+#include "service/process/allocator.h"
 #include "service/rest/api.h"
 #include "service/robot/command_tracker.h"
 
@@ -171,7 +172,7 @@ int main(int argc, char** argv) {
               << " (GET / answers 404): run scripts/build.sh or pass --web-root\n";
   }
 
-  models::KeepFreedMemoryForReuse();  // the models' activations, freed on worker threads
+  process::KeepFreedMemoryForReuse();  // per-request buffers, freed on worker threads
   models::SetTorchThreads(config.torch_threads);  // 0: one per CPU
   auto stiffness_model = LoadStiffnessModel(config.stiffness_model);
   if (!stiffness_model) {

@@ -14,6 +14,7 @@
 #include "service/cli/array_tasks.h"
 #include "service/cli/files.h"
 #include "service/io/depth_codec.h"
+#include "service/process/allocator.h"
 #include "sim/catalogue/catalogue.h"
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/user_objects.h"
@@ -422,6 +423,7 @@ int main(int argc, char** argv) {
     std::cout << kUsage << "\n" << sim::RobotUsage();
     return args.empty() ? 2 : 0;
   }
+  softgrasp::process::KeepFreedMemoryForReuse();  // renders, crops and hulls allocate per image
   if (args[0] == "generate") return RunGenerate({args.begin() + 1, args.end()});
   if (args[0] == "fractals") return RunFractals({args.begin() + 1, args.end()});
   if (args[0] == "merge-tasks") return RunMergeTasks({args.begin() + 1, args.end()});

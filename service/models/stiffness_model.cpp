@@ -1,7 +1,5 @@
 #include "service/models/stiffness_model.h"
 
-#include <malloc.h>
-
 #include <algorithm>
 #include <cmath>
 #include <mutex>
@@ -33,15 +31,6 @@ cv::Mat1f MakeModelInput(const core::Scene& scene, cv::Size size) {
 void SetTorchThreads(int n) {
   const int per_cpu = static_cast<int>(std::thread::hardware_concurrency());
   torch::set_num_threads(n > 0 ? n : std::max(1, per_cpu));
-}
-
-void KeepFreedMemoryForReuse() {
-  // Setting either value also switches off glibc's dynamic mmap threshold. 32 MiB is the
-  // largest mmap threshold glibc accepts on 64-bit.
-  constexpr int kMmapThresholdBytes = 32 * 1024 * 1024;
-  constexpr int kTrimThresholdBytes = 1024 * 1024 * 1024;
-  mallopt(M_MMAP_THRESHOLD, kMmapThresholdBytes);
-  mallopt(M_TRIM_THRESHOLD, kTrimThresholdBytes);
 }
 
 struct StiffnessModel::Impl {

@@ -39,14 +39,6 @@ inline constexpr float kBackgroundThreshold = 0.05f;
 /// n <= 0 (libtorch itself counts physical cores: one on a 2-vCPU VM).
 void SetTorchThreads(int n);
 
-/// Makes glibc's allocator keep freed memory of a process for reuse instead of returning it to
-/// the kernel after every free: blocks up to 32 MiB come from the heap, not from their own
-/// mmap, and heaps are not trimmed. A forward pass allocates tens of MB of activations; on
-/// threads other than the main one (the server's workers) they were mapped and unmapped per
-/// request, about 14,000 page faults and a fifth of the model's time per request
-/// (docs/performance.md). The process keeps its peak heap. Process-wide; call once at start.
-void KeepFreedMemoryForReuse();
-
 class StiffnessModel {
  public:
   /// Reads a model file written by the trainer (a generator and its config). Errors:

@@ -109,5 +109,3 @@ BENCHMARK(BM_FgePrimesense)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace softgrasp::engine
-
-BENCHMARK_MAIN();

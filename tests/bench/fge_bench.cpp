@@ -154,5 +154,3 @@ BENCHMARK(BM_Preprocess)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace softgrasp
-
-BENCHMARK_MAIN();

@@ -98,5 +98,3 @@ BENCHMARK(BM_DelaunayYardstick)->Iterations(20)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace softgrasp
-
-BENCHMARK_MAIN();

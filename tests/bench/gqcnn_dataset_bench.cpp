@@ -113,5 +113,3 @@ BENCHMARK(BM_ObjectAnalysis)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace
 }  // namespace softgrasp::sim
-
-BENCHMARK_MAIN();

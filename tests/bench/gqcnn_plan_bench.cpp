@@ -86,5 +86,3 @@ BENCHMARK(BM_PhoxiGqcnn)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace softgrasp::engine
-
-BENCHMARK_MAIN();

@@ -16,17 +16,32 @@
 namespace softgrasp::rest {
 namespace {
 
+// softgrasp-server's thread settings, applied before the first server starts: one OpenCV thread
+// for the engine, as the FGE goal states; libtorch one thread per CPU. (Its allocator setting
+// comes from bench_main.cpp, as for every benchmark.)
+bool ServerThreads() {
+  static const bool applied = [] {
+    cv::setNumThreads(1);
+    models::SetTorchThreads(0);
+    return true;
+  }();
+  return applied;
+}
+
 testing::RunningServer& Server() {
+  ServerThreads();
   static testing::RunningServer server;
   return server;
 }
 
 testing::RunningServer& ServerWithModel() {
+  ServerThreads();
   static testing::RunningServer server({}, nullptr, nullptr, testing::ShippedStiffnessModel());
   return server;
 }
 
 testing::RunningServer& ServerWithBothModels() {
+  ServerThreads();
   static testing::RunningServer server({}, nullptr, nullptr, testing::ShippedStiffnessModel(),
                                        testing::ShippedSegmentationModel());
   return server;
@@ -135,15 +150,3 @@ BENCHMARK(BM_GetHealthz)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace softgrasp::rest
-
-int main(int argc, char** argv) {
-  // One OpenCV thread for the engine, as the FGE goal states; libtorch one thread per CPU and
-  // freed memory kept, as in softgrasp-server.
-  cv::setNumThreads(1);
-  softgrasp::models::SetTorchThreads(0);  // one per CPU, as the server
-  softgrasp::models::KeepFreedMemoryForReuse();
-  benchmark::Initialize(&argc, argv);
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}

@@ -233,5 +233,3 @@ BENCHMARK(BM_AnalyseMeshGrasps)
 
 }  // namespace
 }  // namespace softgrasp
-
-BENCHMARK_MAIN();

@@ -87,5 +87,3 @@ BENCHMARK(BM_Render)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace softgrasp::sim
-
-BENCHMARK_MAIN();

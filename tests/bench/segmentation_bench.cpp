@@ -136,5 +136,3 @@ BENCHMARK(BM_SegmentFusedDenseBin)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace softgrasp::segmentation
-
-BENCHMARK_MAIN();

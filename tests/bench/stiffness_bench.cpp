@@ -108,5 +108,3 @@ void BM_DetectGraspsFge(benchmark::State& state) {
 BENCHMARK(BM_DetectGraspsFge)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

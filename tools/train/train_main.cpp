@@ -20,6 +20,7 @@
 #include "service/models/dataset.h"
 #include "service/models/stiffness_model.h"
 #include "service/models/trainer.h"
+#include "service/process/allocator.h"
 #include "sim/progress.h"
 #include "tools/train/evaluate.h"
 #include "tools/train/evaluate_tasks.h"
@@ -147,7 +148,7 @@ int RunStiffness(std::vector<std::string> argv) {
 int main(int argc, char** argv) {
   if (argc < 2) return Fail(std::string("missing command\n") + kUsage);
   const std::string command = argv[1];
-  softgrasp::models::KeepFreedMemoryForReuse();  // training and evaluation allocate per step
+  softgrasp::process::KeepFreedMemoryForReuse();  // training and evaluation allocate per step
   std::vector<std::string> args(argv + 2, argv + argc);
   if (command == "stiffness") return RunStiffness(std::move(args));
   if (command == "evaluate") return softgrasp::tools::RunEvaluate(std::move(args));

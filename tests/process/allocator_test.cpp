@@ -1,4 +1,4 @@
-// KeepFreedMemoryForReuse: a large block freed on a worker thread is reused by the next
+// process::KeepFreedMemoryForReuse: a large block freed on a worker thread is reused by the next
 // allocation instead of being unmapped and faulted in again page by page.
 #include <gtest/gtest.h>
 #include <sys/resource.h>
@@ -8,9 +8,9 @@
 #include <cstring>
 #include <thread>
 
-#include "service/models/stiffness_model.h"
+#include "service/process/allocator.h"
 
-namespace softgrasp::models {
+namespace softgrasp::process {
 namespace {
 
 constexpr std::size_t kBlockBytes = 24u << 20;  // about one activation tensor of the U-Nets
@@ -60,4 +60,4 @@ TEST(KeepFreedMemoryForReuse, AFreedBlockIsReusedWithoutPageFaults) {
 }
 
 }  // namespace
-}  // namespace softgrasp::models
+}  // namespace softgrasp::process
