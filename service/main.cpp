@@ -172,7 +172,7 @@ int main(int argc, char** argv) {
               << " (GET / answers 404): run scripts/build.sh or pass --web-root\n";
   }
 
-  process::KeepFreedMemoryForReuse();  // per-request buffers, freed on worker threads
+  process::KeepFreedMemoryForReuse();             // per-request buffers, freed on worker threads
   models::SetTorchThreads(config.torch_threads);  // 0: one per CPU
   auto stiffness_model = LoadStiffnessModel(config.stiffness_model);
   if (!stiffness_model) {

@@ -1,5 +1,7 @@
 // process::KeepFreedMemoryForReuse: a large block freed on a worker thread is reused by the next
 // allocation instead of being unmapped and faulted in again page by page.
+#include "service/process/allocator.h"
+
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 
@@ -7,8 +9,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <thread>
-
-#include "service/process/allocator.h"
 
 namespace softgrasp::process {
 namespace {
