@@ -7,7 +7,7 @@ namespace softgrasp::process {
 /// their own, and heaps are trimmed only above 1 GiB free. The networks' activations, FGE's
 /// per-slice maps and the renderer's buffers are megabytes each; with glibc's defaults they were
 /// mapped and unmapped per request and faulted in again page by page. On virtual machines a page
-/// fault is expensive: there this made the segmentation model 5x and FGE up to 2x slower
+/// fault is expensive: there the defaults made the segmentation model 4-5x and FGE about 3x slower
 /// (docs/performance.md, "The allocator"). The price: the process keeps its peak heap.
 /// Process-wide; call once at start, before other threads run.
 void KeepFreedMemoryForReuse();
