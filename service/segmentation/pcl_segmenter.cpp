@@ -238,8 +238,29 @@ double InstanceScore(const std::vector<cv::Point>& pixels, double min_cluster_px
 
 }  // namespace
 
+double FloorMarginM(const core::Scene& scene, const PclParams& params) {
+  if (!(params.floor_noise_sigmas > 0)) return params.min_height_m;
+  constexpr float kFloorBandM = 0.004f;  // core::PreprocessParams::floor_inlier_m
+  constexpr std::size_t kMinFloorPx = 1000;
+  std::vector<float> abs_height_m;
+  for (int v = 0; v < scene.height_m.rows; v += 2) {
+    const float* height = scene.height_m[v];
+    const std::uint8_t* missing = scene.missing_mask.empty() ? nullptr : scene.missing_mask[v];
+    for (int u = 0; u < scene.height_m.cols; u += 2) {
+      if ((missing && missing[u]) || !(std::abs(height[u]) < kFloorBandM)) continue;
+      abs_height_m.push_back(std::abs(height[u]));
+    }
+  }
+  if (abs_height_m.size() < kMinFloorPx) return params.min_height_m;
+  const auto middle = abs_height_m.begin() + static_cast<std::ptrdiff_t>(abs_height_m.size() / 2);
+  std::nth_element(abs_height_m.begin(), middle, abs_height_m.end());
+  const double noise_m = 1.4826 * *middle;  // sigma of a normal distribution from its MAD
+  return std::clamp(params.floor_noise_sigmas * noise_m, params.min_height_lowest_m,
+                    params.min_height_m);
+}
+
 core::Result<InstanceMasks> SegmentPcl(const core::Scene& scene, const core::Camera& camera,
-                                       const PclParams& params) {
+                                       const PclParams& requested) {
   // RANSAC finding no plane is an expected outcome here (a scene without walls), not an error
   // for the service's log: PCL's console stays quiet.
   static const bool quiet = [] {
@@ -255,12 +276,19 @@ core::Result<InstanceMasks> SegmentPcl(const core::Scene& scene, const core::Cam
                                std::to_string(scene.height_m.rows) + " but the camera " +
                                std::to_string(camera.width) + "x" + std::to_string(camera.height));
   }
-  if (params.stride_px < 1 || params.stride_px > 16 || !(params.cluster_tolerance_m > 0) ||
-      params.min_cluster_px < 1 || params.max_cluster_px < params.min_cluster_px) {
+  if (requested.stride_px < 1 || requested.stride_px > 16 || !(requested.cluster_tolerance_m > 0) ||
+      requested.min_cluster_px < 1 || requested.max_cluster_px < requested.min_cluster_px ||
+      !(requested.min_height_m > 0) || !(requested.min_height_lowest_m > 0) ||
+      requested.min_height_lowest_m > requested.min_height_m ||
+      !(requested.floor_noise_sigmas >= 0)) {
     return core::MakeError(core::ErrorCode::kInvalidArgument,
-                           "SegmentPcl: stride_px must be 1..16, cluster_tolerance_m > 0 and "
-                           "1 <= min_cluster_px <= max_cluster_px");
+                           "SegmentPcl: stride_px must be 1..16, cluster_tolerance_m > 0, "
+                           "1 <= min_cluster_px <= max_cluster_px, "
+                           "0 < min_height_lowest_m <= min_height_m, floor_noise_sigmas >= 0");
   }
+  // From here on min_height_m is this frame's floor margin.
+  PclParams params = requested;
+  params.min_height_m = FloorMarginM(scene, requested);
   const int w = size.width, h = size.height;
   const double area_scale = static_cast<double>(w) * h / kReferenceAreaPx;
   const int min_px = ScalePx(params.min_cluster_px, area_scale);

@@ -5,10 +5,12 @@
 /// Parameters, their published sources and measured accuracy: docs/segmentation.md.
 ///
 /// Method (SegmentPcl):
-///  1. Candidates: pixels that were measured (not scene.missing_mask) and stand at least
-///     min_height_m above the fitted floor (scene.height_m); the floor, a table and anything
-///     below them are support. Candidates are back-projected into the camera frame C (every
-///     stride_px-th row and column) into a pcl::PointCloud<pcl::PointXYZ>, with each point's pixel.
+///  1. Candidates: pixels that were measured (not scene.missing_mask) and stand at least the
+///     floor margin above the fitted floor (scene.height_m); the floor, a table and anything
+///     below them are support. The margin follows the frame's floor noise (FloorMarginM: a
+///     robust sigma of the measured heights within 4 mm of the fitted floor). Candidates are
+///     back-projected into the camera frame C (every stride_px-th row and column) into a
+///     pcl::PointCloud<pcl::PointXYZ>, with each point's pixel.
 ///  2. Support beyond the fitted floor. Walls: candidates on steep surfaces (normal more than
 ///     wall_steep_deg from the floor normal) go to RANSAC (pcl::SACSegmentation,
 ///     SACMODEL_PARALLEL_PLANE about the floor normal: vertical planes). A plane is a wall when it
@@ -41,10 +43,23 @@
 
 namespace softgrasp::segmentation {
 
+struct PclParams;
+
+/// The floor margin SegmentPcl uses on this scene (metres; see PclParams::min_height_m): the
+/// floor noise is 1.4826 x the median absolute height of the measured pixels within 4 mm of the
+/// fitted floor (every second row and column); min_height_m when fewer than 1,000 such pixels.
+double FloorMarginM(const core::Scene& scene, const PclParams& params);
+
 /// Pixel counts are given for a 640 x 480 image and scaled with the image area for other sizes.
 struct PclParams {
-  /// Points lower than this above the fitted floor are support (floor noise, thin debris).
+  /// Points lower than the floor margin above the fitted floor are support (floor noise, thin
+  /// debris). The margin is floor_noise_sigmas x this frame's floor noise, clamped to
+  /// [min_height_lowest_m, min_height_m]: 6 mm on the simulated sensors (noise 1.5 mm) and
+  /// PhoXi-like frames, 2.5 mm on a Primesense frame whose table is flat to 0.3 mm, where 6 mm
+  /// cut off objects' flat rims. floor_noise_sigmas = 0: min_height_m on every frame.
   double min_height_m = 0.006;
+  double min_height_lowest_m = 0.0025;
+  double floor_noise_sigmas = 4.0;
   /// EuclideanClusterExtraction tolerance. SD Mask R-CNN's baseline uses 0.004 m (Primesense)
   /// and 0.002 m (PhoXi); 0.003 m separates more touching objects in dense simulated bins and
   /// does as well on the real frames (docs/segmentation.md).
