@@ -3,8 +3,8 @@
 # service/process/allocator.h) against glibc's defaults, in the same run on the same machine:
 # each benchmark below runs alternately with both settings (bench_main.cpp's
 # --glibc-default-malloc), each run 3 repetitions. Prints one JSON object: per benchmark, the
-# median over rounds of the runs' medians (ms, real time) and glibc / kept. docs/performance.md
-# ("The allocator") has the figures.
+# upper median over rounds (with 2 rounds: the higher) of the runs' medians (ms, real time) and
+# glibc / kept. docs/performance.md ("The allocator") has the figures.
 #
 #   bash scripts/bench-allocator.sh [--quick] [--build-dir DIR] [--rounds N]
 #
@@ -61,7 +61,7 @@ for ((round = 0; round < rounds; ++round)); do
     for setting in "${order[@]}"; do run "${benches[i]}" "${benches[i + 1]}" "$setting" "$round"; done
   done
 done
-# Per benchmark and setting, the median over the rounds of the runs' medians.
+# Per benchmark and setting, the upper median over the rounds of the runs' medians.
 for setting in kept glibc; do
   jq -s 'map(to_entries[]) | group_by(.key)
          | map({key: .[0].key, value: (map(.value) | sort | .[length / 2 | floor])})

@@ -54,7 +54,7 @@ double FloorMarginM(const core::Scene& scene, const PclParams& params);
 struct PclParams {
   /// Points lower than the floor margin above the fitted floor are support (floor noise, thin
   /// debris). The margin is floor_noise_sigmas x this frame's floor noise, clamped to
-  /// [min_height_lowest_m, min_height_m]: 6 mm on the simulated sensors (noise 1.5 mm) and
+  /// [min_height_lowest_m, min_height_m]: 5.8-6 mm on the simulated sensors (noise 1.5 mm) and
   /// PhoXi-like frames, 2.5 mm on a Primesense frame whose table is flat to 0.3 mm, where 6 mm
   /// cut off objects' flat rims. floor_noise_sigmas = 0: min_height_m on every frame.
   double min_height_m = 0.006;
