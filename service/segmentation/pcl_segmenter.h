@@ -43,13 +43,6 @@
 
 namespace softgrasp::segmentation {
 
-struct PclParams;
-
-/// The floor margin SegmentPcl uses on this scene (metres; see PclParams::min_height_m): the
-/// floor noise is 1.4826 x the median absolute height of the measured pixels within 4 mm of the
-/// fitted floor (every second row and column); min_height_m when fewer than 1,000 such pixels.
-double FloorMarginM(const core::Scene& scene, const PclParams& params);
-
 /// Pixel counts are given for a 640 x 480 image and scaled with the image area for other sizes.
 struct PclParams {
   /// Points lower than the floor margin above the fitted floor are support (floor noise, thin
@@ -114,6 +107,11 @@ struct PclParams {
   int max_walls = 6;
   int ransac_iterations = 300;
 };
+
+/// The floor margin SegmentPcl uses on this scene (metres; see PclParams::min_height_m): the
+/// floor noise is 1.4826 x the median absolute height of the measured pixels within 4 mm of the
+/// fitted floor (every second row and column); min_height_m when fewer than 1,000 such pixels.
+double FloorMarginM(const core::Scene& scene, const PclParams& params);
 
 /// Segments a preprocessed scene (core::Preprocess) seen by `camera`. Missing input pixels
 /// (scene.missing_mask) belong to no instance. Instances are ordered by decreasing score (see
