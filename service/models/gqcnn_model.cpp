@@ -35,7 +35,8 @@ core::Result<GqcnnModel> GqcnnModel::Load(const std::filesystem::path& path) {
       "/" + std::to_string(c.conv1_2_kernel) + "x" + std::to_string(c.conv1_2_kernel) + "x" +
       std::to_string(c.conv1_channels) + ", 3x3x" + std::to_string(c.conv2_channels) + ", fc3 " +
       std::to_string(c.fc3_units) + ", pc1 " + std::to_string(c.pc1_units) + ", fc4 " +
-      std::to_string(c.fc4_units) + ", " + std::to_string(impl->parameters) + " parameters";
+      std::to_string(c.fc4_units) + ", " + std::to_string(impl->parameters) + " parameters" +
+      (c.factored ? ", factored output" : "");
   return GqcnnModel(std::move(impl));
 }
 
@@ -58,7 +59,8 @@ std::vector<float> GqcnnModel::Predict(std::span<const float> crops,
                          static_cast<std::int64_t>(n), impl_->loaded.normalisation, &images,
                          &poses);
     const torch::Tensor p =
-        torch::softmax(impl_->loaded.net->forward(images, poses), 1).select(1, 1).contiguous();
+        GqcnnSuccessProbability(impl_->loaded.net->forward(images, poses), impl_->loaded.config)
+            .contiguous();
     std::copy_n(p.data_ptr<float>(), n, out.begin() + static_cast<std::ptrdiff_t>(begin));
   }
   return out;

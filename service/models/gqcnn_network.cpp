@@ -21,7 +21,8 @@ torch::Tensor ConfigTensor(const GqcnnNetConfig& c) {
        static_cast<std::int64_t>(c.conv2_channels), static_cast<std::int64_t>(c.conv1_1_kernel),
        static_cast<std::int64_t>(c.conv1_2_kernel), static_cast<std::int64_t>(c.fc3_units),
        static_cast<std::int64_t>(c.pc1_units), static_cast<std::int64_t>(c.fc4_units),
-       static_cast<std::int64_t>(c.local_response_norm ? 1 : 0)},
+       static_cast<std::int64_t>(c.local_response_norm ? 1 : 0),
+       static_cast<std::int64_t>(c.factored ? 1 : 0)},
       torch::kInt64);
 }
 
@@ -49,6 +50,29 @@ void TruncatedNormal(torch::Tensor t, double std) {
 }
 
 }  // namespace
+
+torch::Tensor GqcnnSuccessProbability(const torch::Tensor& logits, const GqcnnNetConfig& config) {
+  if (config.factored)
+    return torch::sigmoid(logits.select(1, 0)) * torch::sigmoid(logits.select(1, 1));
+  return torch::softmax(logits, 1).select(1, 1);
+}
+
+torch::Tensor GqcnnSuccessLoss(const torch::Tensor& logits, const torch::Tensor& labels,
+                               const GqcnnNetConfig& config, const torch::Tensor& class_weights,
+                               bool sum) {
+  torch::Tensor log_probs;  // [N, 2]: log P(fails), log P(succeeds)
+  if (config.factored) {
+    const torch::Tensor log_success =
+        torch::log_sigmoid(logits.select(1, 0)) + torch::log_sigmoid(logits.select(1, 1));
+    // log(1 - p) with p = exp(log_success) < 1; the clamp keeps a certain success finite.
+    const torch::Tensor log_fail = torch::log1p(-torch::exp(log_success).clamp_max(1.0 - 1e-6));
+    log_probs = torch::stack({log_fail, log_success}, 1);
+  } else {
+    log_probs = torch::log_softmax(logits, 1);
+  }
+  const auto reduction = sum ? at::Reduction::Sum : at::Reduction::Mean;
+  return torch::nll_loss(log_probs, labels, class_weights, reduction);
+}
 
 std::int64_t GqcnnForwardMacs(const GqcnnNetConfig& c) {
   const std::int64_t full = kSide * kSide, half = full / 4;
@@ -136,6 +160,8 @@ nlohmann::json GqcnnConfigJson(const GqcnnNetConfig& c) {
           {"pc1_units", c.pc1_units},
           {"fc4_units", c.fc4_units},
           {"local_response_norm", c.local_response_norm},
+          {"output", c.factored ? "factored: sigmoid(collision-free) x sigmoid(quality)"
+                                : "softmax (fails, succeeds)"},
           {"forward_macs_per_crop", GqcnnForwardMacs(c)}};
 }
 
@@ -179,11 +205,11 @@ core::Result<LoadedGqcnnNet> LoadGqcnnNet(const std::filesystem::path& path) {
     if (!archive.try_read("config", config_t) || config_t.numel() < 1) return fail("no config");
     const auto cfg = config_t.to(torch::kInt64).contiguous();
     const std::int64_t* v = cfg.data_ptr<std::int64_t>();
-    if (v[0] != kGqcnnFormatVersion) {
-      return fail("format version " + std::to_string(v[0]) + ", this build reads version " +
+    if (v[0] != 1 && v[0] != kGqcnnFormatVersion) {
+      return fail("format version " + std::to_string(v[0]) + ", this build reads versions 1 to " +
                   std::to_string(kGqcnnFormatVersion));
     }
-    if (cfg.numel() != 9) return fail("config of the wrong length");
+    if (cfg.numel() != (v[0] == 1 ? 9 : 10)) return fail("config of the wrong length");
     for (int i = 1; i < 9; ++i) {
       if (v[i] < 0 || v[i] > 1024) return fail("implausible config");
     }
@@ -197,6 +223,10 @@ core::Result<LoadedGqcnnNet> LoadGqcnnNet(const std::filesystem::path& path) {
     out.config.fc4_units = static_cast<int>(v[7]);
     if (v[8] != 0 && v[8] != 1) return fail("implausible config");
     out.config.local_response_norm = v[8] == 1;
+    if (v[0] >= 2) {
+      if (v[9] != 0 && v[9] != 1) return fail("implausible config");
+      out.config.factored = v[9] == 1;
+    }
     if (!ValidConfig(out.config)) return fail("implausible config");
     if (!archive.try_read("normalisation", norm_t) || norm_t.numel() != 4) {
       return fail("no normalisation");

@@ -34,9 +34,24 @@ struct GqcnnNetConfig {
   /// Dex-Net's LRN (radius 2, alpha 2e-5, beta 0.75, bias 1). Off: on inputs of order 1 it
   /// divides by ~1.0, and libtorch's CPU LRN made training 10x slower (docs/gqcnn.md).
   bool local_response_norm = false;
+  /// The two outputs of fc5. false: Dex-Net's softmax over (fails, succeeds). true ("factored"):
+  /// independent logits of "the gripper reaches the grasp without collision" and "the robust
+  /// quality is above the label threshold"; P(succeeds) = sigmoid(a) * sigmoid(b), and training
+  /// supervises each factor with its own label besides the product (docs/gqcnn.md).
+  bool factored = false;
 
   bool operator==(const GqcnnNetConfig&) const = default;
 };
+
+/// P(succeeds) [N] from fc5's logits [N, 2], as `config.factored` says.
+torch::Tensor GqcnnSuccessProbability(const torch::Tensor& logits, const GqcnnNetConfig& config);
+
+/// Mean cross-entropy of P(succeeds) against labels [N] (int64 0/1), with optional weights
+/// {w_fail, w_succeed} (empty: unweighted; weighted means divide by the summed weights, as
+/// torch's nll_loss). `sum` returns the sum instead of the mean.
+torch::Tensor GqcnnSuccessLoss(const torch::Tensor& logits, const torch::Tensor& labels,
+                               const GqcnnNetConfig& config, const torch::Tensor& class_weights,
+                               bool sum = false);
 
 /// Multiply-accumulates of one forward pass of one 32x32 crop (convolutions and linear layers).
 std::int64_t GqcnnForwardMacs(const GqcnnNetConfig& config);
@@ -76,11 +91,13 @@ void NormaliseGqcnnInputs(const float* crops_depth_m, const float* grasp_depths_
                           const GqcnnNormalisation& norm, torch::Tensor* images,
                           torch::Tensor* poses);
 
-/// Model file format version of GQ-CNN models.
-inline constexpr std::int64_t kGqcnnFormatVersion = 1;
+/// Model file format version of GQ-CNN models. Version 2 adds the `factored` flag to the config;
+/// version 1 files (softmax output) still load.
+inline constexpr std::int64_t kGqcnnFormatVersion = 2;
 
 /// Writes the network (its parameters), config, normalisation and `card` (JSON, stored as UTF-8
-/// bytes) to `path` as a libtorch archive: "kind" marker, "config" = int64 [version, 8 sizes],
+/// bytes) to `path` as a libtorch archive: "kind" marker, "config" = int64 [version, 7 sizes, LRN,
+/// factored],
 /// "normalisation" = float64 [4], "card" = uint8 [bytes], "net/...". Writes a temporary file and
 /// renames it. Throws on I/O failure.
 void SaveGqcnnNet(const std::filesystem::path& path, GqcnnNet& net, const GqcnnNetConfig& config,

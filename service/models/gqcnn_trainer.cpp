@@ -230,7 +230,7 @@ struct Counts {
 };
 
 /// Probabilities of `records` (eval mode, no grad), in chunks.
-std::vector<float> PredictRecords(GqcnnNet& net, const GqcnnSet& set,
+std::vector<float> PredictRecords(GqcnnNet& net, const GqcnnNetConfig& config, const GqcnnSet& set,
                                   const std::vector<std::size_t>& records,
                                   const GqcnnNormalisation& norm, double* mean_loss) {
   torch::NoGradGuard no_grad;
@@ -255,8 +255,8 @@ std::vector<float> PredictRecords(GqcnnNet& net, const GqcnnSet& set,
                          &poses);
     const torch::Tensor logits = net->forward(images, poses);
     const torch::Tensor target = torch::tensor(labels, torch::kInt64);
-    loss_sum += torch::cross_entropy_loss(logits, target, {}, at::Reduction::Sum).item<double>();
-    const torch::Tensor p = torch::softmax(logits, 1).select(1, 1).contiguous();
+    loss_sum += GqcnnSuccessLoss(logits, target, config, {}, /*sum=*/true).item<double>();
+    const torch::Tensor p = GqcnnSuccessProbability(logits, config).contiguous();
     std::copy_n(p.data_ptr<float>(), n, probs.begin() + static_cast<std::ptrdiff_t>(begin));
   }
   if (mean_loss) *mean_loss = loss_sum / std::max<std::size_t>(1, records.size());
@@ -264,12 +264,12 @@ std::vector<float> PredictRecords(GqcnnNet& net, const GqcnnSet& set,
   return probs;
 }
 
-GqcnnValidation Validate(GqcnnNet& net, const GqcnnSet& set,
+GqcnnValidation Validate(GqcnnNet& net, const GqcnnNetConfig& config, const GqcnnSet& set,
                          const std::vector<std::size_t>& records, const GqcnnNormalisation& norm,
                          int step) {
   GqcnnValidation v;
   v.step = step;
-  const std::vector<float> probs = PredictRecords(net, set, records, norm, &v.loss);
+  const std::vector<float> probs = PredictRecords(net, config, set, records, norm, &v.loss);
   Counts c;
   for (std::size_t k = 0; k < records.size(); ++k) {
     c.Add(set.labels[records[k]] != 0, probs[k] >= 0.5f);
@@ -281,10 +281,17 @@ GqcnnValidation Validate(GqcnnNet& net, const GqcnnSet& set,
   return v;
 }
 
-double PositiveRate(const GqcnnSet& set, const std::vector<std::size_t>& records) {
+double PositiveRate(const std::vector<std::uint8_t>& labels,
+                    const std::vector<std::size_t>& records) {
   double pos = 0;
-  for (const std::size_t i : records) pos += set.labels[i];
+  for (const std::size_t i : records) pos += labels[i];
   return records.empty() ? 0.0 : pos / static_cast<double>(records.size());
+}
+
+/// {w_0, w_1} that make both classes weigh half of the loss.
+torch::Tensor BalancedClassWeights(double positive_rate) {
+  const double rate = std::clamp(positive_rate, 1e-3, 1.0 - 1e-3);
+  return torch::tensor({0.5 / (1.0 - rate), 0.5 / rate}, torch::kFloat32);
 }
 
 void WriteCurves(const std::filesystem::path& out, const std::vector<GqcnnStepRecord>& history,
@@ -406,6 +413,8 @@ core::Result<GqcnnSet> LoadGqcnnSet(const std::vector<std::filesystem::path>& di
         set.grasp_depths_m.push_back(r.grasp_depth_m);
         set.width_px.push_back(r.hand_pose[6]);
         set.labels.push_back(r.label ? 1 : 0);
+        set.collision_free.push_back(r.collision_free ? 1 : 0);
+        set.quality_labels.push_back(r.robust_ferrari_canny > index.metric_threshold ? 1 : 0);
         set.positives += r.label ? 1 : 0;
         set.object_keys.push_back(object_base + r.object_index);
         const auto [it, inserted] = image_keys.try_emplace(
@@ -592,7 +601,7 @@ core::Result<LogisticBaseline> LogisticBaseline::FromJson(const nlohmann::json& 
 
 LogisticBaseline FitLogisticBaseline(const GqcnnSet& set, const std::vector<std::size_t>& records) {
   LogisticBaseline b;
-  b.train_positive_rate = PositiveRate(set, records);
+  b.train_positive_rate = PositiveRate(set.labels, records);
   std::vector<std::array<double, 2>> x;
   x.reserve(records.size());
   std::array<double, 2> sum{}, sum2{};
@@ -674,7 +683,7 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
   const GqcnnSplit split = SplitByObject(set, o.validation_fraction, o.seed);
   auto count_classes = [&](const std::vector<std::size_t>& records,
                            const char* which) -> std::optional<core::Error> {
-    const double rate = PositiveRate(set, records);
+    const double rate = PositiveRate(set.labels, records);
     if (records.empty() || rate <= 0 || rate >= 1) {
       return MakeError(ErrorCode::kInvalidArgument,
                        std::string("the object-wise split's ") + which +
@@ -687,6 +696,11 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
   };
   if (auto e = count_classes(split.train, "training")) return *e;
   if (auto e = count_classes(split.validation, "validation")) return *e;
+  if (o.network.factored &&
+      (set.collision_free.size() != set.size() || set.quality_labels.size() != set.size())) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "a factored network needs each record's collision and quality labels", "data");
+  }
 
   const auto n_train = static_cast<double>(split.train.size());
   const int total_steps =
@@ -704,9 +718,13 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
   const json fingerprint = RunFingerprint(opt, norm, split.train.size());
   std::vector<std::size_t> positives, negatives;
   for (const std::size_t i : split.train) (set.labels[i] ? positives : negatives).push_back(i);
-  const double train_rate = PositiveRate(set, split.train);
-  const torch::Tensor class_weights =
-      torch::tensor({0.5 / (1.0 - train_rate), 0.5 / train_rate}, torch::kFloat32);
+  const double train_rate = PositiveRate(set.labels, split.train);
+  const torch::Tensor class_weights = BalancedClassWeights(train_rate);
+  torch::Tensor collision_weights, quality_weights;
+  if (o.network.factored) {
+    collision_weights = BalancedClassWeights(PositiveRate(set.collision_free, split.train));
+    quality_weights = BalancedClassWeights(PositiveRate(set.quality_labels, split.train));
+  }
 
   torch::manual_seed(MixSeed(o.seed, 0));
   State s(opt);
@@ -796,6 +814,8 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
   std::vector<float> crops(static_cast<std::size_t>(o.batch) * kPixels);
   std::vector<float> depths(static_cast<std::size_t>(o.batch));
   std::vector<std::int64_t> labels(static_cast<std::size_t>(o.batch));
+  std::vector<float> collision_free(static_cast<std::size_t>(o.batch));
+  std::vector<float> quality(static_cast<std::size_t>(o.batch));
   while (p.step < last_step) {
     const int step = ++p.step;
     std::mt19937_64 rng(MixSeed(o.seed, static_cast<std::uint64_t>(step)));
@@ -815,6 +835,10 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
       AugmentCrop(crop, o.augmentation, rng);
       depths[static_cast<std::size_t>(k)] = set.grasp_depths_m[i];
       labels[static_cast<std::size_t>(k)] = set.labels[i];
+      if (o.network.factored) {
+        collision_free[static_cast<std::size_t>(k)] = set.collision_free[i];
+        quality[static_cast<std::size_t>(k)] = set.quality_labels[i];
+      }
     }
     torch::Tensor images, poses;
     NormaliseGqcnnInputs(crops.data(), depths.data(), o.batch, norm, &images, &poses);
@@ -824,15 +848,29 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
     for (auto& group : s.opt->param_groups()) group.options().set_lr(lr);
     s.opt->zero_grad();
     const torch::Tensor logits = s.net->forward(images, poses);
-    const torch::Tensor loss =
-        o.balance == GqcnnBalance::kWeightedLoss
-            ? torch::nll_loss(torch::log_softmax(logits, 1), target, class_weights)
-            : torch::nll_loss(torch::log_softmax(logits, 1), target);
+    const bool weighted = o.balance == GqcnnBalance::kWeightedLoss;
+    torch::Tensor loss =
+        GqcnnSuccessLoss(logits, target, o.network, weighted ? class_weights : torch::Tensor());
+    if (o.network.factored) {
+      // Each factor learns from its own label too: a failure says which part failed.
+      auto factor_loss = [&](int column, const std::vector<float>& y, const torch::Tensor& w) {
+        const torch::Tensor t = torch::tensor(y, torch::kFloat32);
+        const torch::Tensor x = logits.select(1, column);
+        if (!weighted) return torch::binary_cross_entropy_with_logits(x, t);
+        const torch::Tensor per = w[0] * (1.0 - t) + w[1] * t;
+        return (per * torch::binary_cross_entropy_with_logits(x, t, {}, {}, at::Reduction::None))
+                   .sum() /
+               per.sum();
+      };
+      loss = loss + factor_loss(0, collision_free, collision_weights) +
+             factor_loss(1, quality, quality_weights);
+    }
     loss.backward();
     s.opt->step();
-    GqcnnStepRecord record{step, loss.item<double>(),
-                           logits.argmax(1).eq(target).to(torch::kFloat64).mean().item<double>(),
-                           lr};
+    const torch::Tensor predicted = GqcnnSuccessProbability(logits, o.network).ge(0.5);
+    GqcnnStepRecord record{
+        step, loss.item<double>(),
+        predicted.eq(target.to(torch::kBool)).to(torch::kFloat64).mean().item<double>(), lr};
     if (!std::isfinite(record.loss)) {
       return MakeError(ErrorCode::kInternal,
                        "training diverged at step " + std::to_string(step) +
@@ -842,7 +880,7 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
     p.history.push_back(record);
     const GqcnnValidation* validated = nullptr;
     if (step % opt.eval_every == 0 || step == total_steps) {
-      p.validations.push_back(Validate(s.net, set, split.validation, norm, step));
+      p.validations.push_back(Validate(s.net, o.network, set, split.validation, norm, step));
       validated = &p.validations.back();
       if (!p.has_best || validated->balanced_accuracy > p.best.balanced_accuracy) {
         p.best = *validated;

@@ -27,6 +27,10 @@ struct GqcnnSet {
   std::vector<float> grasp_depths_m;  ///< size()
   std::vector<float> width_px;        ///< hand_pose[6]: the jaw opening in the full image
   std::vector<std::uint8_t> labels;
+  /// The label's two factors: the gripper reaches the grasp without collision, and the robust
+  /// quality is above the dataset's metric threshold (label = both).
+  std::vector<std::uint8_t> collision_free;
+  std::vector<std::uint8_t> quality_labels;
   std::vector<std::uint32_t> object_keys;  ///< into object_names
   std::vector<std::uint32_t> image_keys;   ///< dense, per (dataset, image_index)
   std::vector<std::string> object_names;   ///< "DIR:name"

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
 #include "service/models/gqcnn_model.h"
@@ -116,6 +117,47 @@ TEST_F(GqcnnCliTest, TrainsAFewStepsResumesAndEvaluates) {
       Run("gqcnn-eval --model " + model.string() + " --data " + Dir("train") + " --resamples 20");
   ASSERT_EQ(leak.exit_code, 0) << leak.err;
   EXPECT_TRUE(json::parse(leak.out).contains("warning"));
+}
+
+// --factored and --no-gain reach the card; --predictions writes one row per grasp.
+TEST_F(GqcnnCliTest, FactoredTrainingWithoutGainAndPredictionRows) {
+  const fs::path model = *root_ / "factored" / "gqcnn.pt";
+  const CliRun train = Run("gqcnn --data " + Dir("train") + " --out " + model.string() +
+                           " --batch 16 --seed 3 --eval-every 10 --threads 1 --steps 10"
+                           " --factored --no-gain");
+  ASSERT_EQ(train.exit_code, 0) << train.err;
+  const json card = json::parse(Slurp(*root_ / "factored" / "gqcnn.json"));
+  EXPECT_EQ(card.at("architecture").at("output").get<std::string>().rfind("factored", 0), 0u);
+  EXPECT_FALSE(card.at("training").at("augmentation").at("multiplicative").get<bool>());
+  EXPECT_TRUE(card.at("training").at("augmentation").at("symmetries").get<bool>());
+
+  const fs::path rows = *root_ / "factored" / "rows.csv";
+  const CliRun eval = Run("gqcnn-eval --model " + model.string() + " --data " + Dir("test") +
+                          " --predictions " + rows.string() + " --resamples 20 --threads 1");
+  ASSERT_EQ(eval.exit_code, 0) << eval.err;
+  const json confusion = json::parse(eval.out).at("gqcnn").at("confusion");
+  std::istringstream csv(Slurp(rows));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "record,object,image,label,p_gqcnn,p_logistic");
+  int n = 0, positives = 0, predicted = 0;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> cells;
+    std::istringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    ASSERT_EQ(cells.size(), 6u) << line;
+    EXPECT_EQ(std::stoi(cells[0]), n);
+    EXPECT_EQ(cells[1].rfind("test:bar-", 0), 0u) << line;
+    positives += cells[3] == "1";
+    const double p = std::stod(cells[4]);
+    EXPECT_GE(p, 0.0);
+    EXPECT_LE(p, 1.0);
+    predicted += p >= 0.5;
+    ++n;
+  }
+  EXPECT_EQ(n, 8 * 10 * 4);
+  EXPECT_EQ(positives, confusion.at("tp").get<int>() + confusion.at("fn").get<int>());
+  EXPECT_EQ(predicted, confusion.at("tp").get<int>() + confusion.at("fp").get<int>());
 }
 
 TEST_F(GqcnnCliTest, BadCommandLinesExitTwoNamingTheProblem) {

@@ -31,15 +31,18 @@ const char* const kGqcnnUsage =
     "                             [--seed S] [--resume] [--eval-every N] [--checkpoint-every N]\n"
     "                             [--validation-fraction F] [--conv1-channels C]\n"
     "                             [--conv2-channels C] [--fc-units U] [--no-augmentation]\n"
-    "                             [--threads T]\n"
+    "                             [--no-gain] [--factored] [--threads T]\n"
     "  Trains the GQ-CNN on softgrasp-sim gqcnn-dataset directories (object-wise 80/20 split,\n"
     "  Dex-Net 2.0 augmentations). Writes MODEL.pt (best validation balanced accuracy), its card\n"
     "  MODEL.json, MODEL.ckpt (resumable), MODEL_loss.csv/.png and MODEL_accuracy.png.\n"
     "       softgrasp-train gqcnn-eval --model MODEL.pt --data DIR [--data DIR2 ...]\n"
     "                                  [--json OUT] [--threshold P] [--resamples N] [--threads T]\n"
+    "                                  [--predictions OUT.csv]\n"
     "  Accuracy, balanced accuracy, precision, recall and precision of the top-ranked grasp per\n"
     "  image, with 95 % intervals resampling objects, for the model and two baselines (majority\n"
     "  class; logistic regression on two hand features fitted on the model's training split).\n"
+    "  --predictions writes one row per grasp (record, object, image, label, both probabilities)\n"
+    "  in the order the records are read (shard by shard).\n"
     "       softgrasp-train gqcnn-bench [--model MODEL.pt] [--conv1-channels C]\n"
     "                                   [--conv2-channels C] [--fc-units U] [--threads T]\n"
     "  Measures Predict for 250 and 1000 crops and training throughput (crops/s).\n";
@@ -66,6 +69,7 @@ void ReadNetworkOptions(cli::Args& args, models::GqcnnNetConfig* c) {
   int fc = 0;
   if (args.Int("--fc-units", 1, 1024, &fc)) c->fc3_units = c->fc4_units = fc;
   if (args.Flag("--no-lrn")) c->local_response_norm = false;
+  if (args.Flag("--factored")) c->factored = true;
   if ((c->conv1_1_kernel % 2) == 0 || (c->conv1_2_kernel % 2) == 0) {
     args.Fail("--conv1-1-kernel and --conv1-2-kernel must be odd", "--conv1-1-kernel");
   }
@@ -114,6 +118,7 @@ int RunGqcnnTrain(std::vector<std::string> argv) {
     o.augmentation.gp_rate = 0;
     o.augmentation.symmetries = false;
   }
+  if (args.Flag("--no-gain")) o.augmentation.multiplicative = false;
   args.Int("--threads", 1, 256, &threads);
   o.resume = args.Flag("--resume");
   if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
@@ -172,13 +177,14 @@ int RunGqcnnTrain(std::vector<std::string> argv) {
 
 int RunGqcnnEvaluate(std::vector<std::string> argv) {
   cli::Args args(std::move(argv));
-  std::string model_path, json_out;
+  std::string model_path, json_out, predictions_out;
   int threads = 2, resamples = 1000;
   double threshold = 0.5;
   std::uint64_t seed = 1;
   args.Required("--model", "MODEL", &model_path);
   const std::vector<std::string> data = args.All("--data");
   args.Text("--json", &json_out);
+  args.Text("--predictions", &predictions_out);
   args.Number("--threshold", cli::Bounds::Closed(0, 1), &threshold);
   args.Int("--resamples", 10, 1000000, &resamples);
   args.Int("--seed", 0, cli::kNoLimit, &seed);
@@ -205,6 +211,17 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
     logistic[i] = static_cast<float>(baseline.value().Predict(
         models::GqcnnHandFeatures(s.crop(i), s.grasp_depths_m[i], s.width_px[i])));
     majority[i] = static_cast<float>(baseline.value().train_positive_rate);
+  }
+  if (!predictions_out.empty()) {
+    std::string csv = "record,object,image,label,p_gqcnn,p_logistic\n";
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      csv += std::to_string(i) + "," + s.object_names[s.object_keys[i]] + "," +
+             std::to_string(s.image_keys[i]) + "," + std::to_string(int{s.labels[i]}) + "," +
+             std::to_string(p[i]) + "," + std::to_string(logistic[i]) + "\n";
+    }
+    if (auto error = cli::WriteFile(predictions_out, csv, cli::Parents::kCreate)) {
+      return FailError(*error);
+    }
   }
   auto score = [&](const std::vector<float>& probabilities) {
     GqcnnScored scored{s.labels, probabilities, s.object_keys, s.image_keys};
