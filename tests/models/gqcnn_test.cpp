@@ -47,6 +47,27 @@ GqcnnNet MakeNet(std::uint64_t seed) {
 
 const GqcnnNormalisation kNorm{0.65, 0.05, 0.64, 0.04};
 
+/// Writes the model file `to`: the kind marker, normalisation and card of the model file `from`
+/// with the config tensor `config`, and the weights of `net` when given.
+void RewriteConfig(const fs::path& from, const fs::path& to, const torch::Tensor& config,
+                   GqcnnNet* net = nullptr) {
+  torch::serialize::InputArchive in;
+  in.load_from(from.string());
+  torch::serialize::OutputArchive out;
+  for (const char* key : {"kind", "normalisation", "card"}) {
+    torch::Tensor t;
+    in.read(key, t);
+    out.write(key, t);
+  }
+  out.write("config", config);
+  if (net != nullptr) {
+    torch::serialize::OutputArchive weights;
+    (*net)->save(weights);
+    out.write("net", weights);
+  }
+  out.save_to(to.string());
+}
+
 TEST(GqcnnModelTest, SavedFileGivesTheSameOutputsAndCard) {
   SetTorchThreads(1);
   testing::TempDir dir("gqcnn-file");
@@ -136,26 +157,9 @@ TEST(GqcnnModelTest, FactoredOutputIsTheProductOfTwoSigmoids) {
 TEST(GqcnnModelTest, ReadsVersionOneFiles) {
   testing::TempDir dir("gqcnn-v1");
   GqcnnNet net = MakeNet(6);
-  const fs::path v2 = dir.path() / "v2.pt";
+  const fs::path v2 = dir.path() / "v2.pt", v1 = dir.path() / "v1.pt";
   SaveGqcnnNet(v2, net, GqcnnNetConfig{}, kNorm, json::object());
-  torch::serialize::InputArchive in;
-  in.load_from(v2.string());
-  torch::serialize::OutputArchive out;
-  for (const char* key : {"kind", "normalisation", "card"}) {
-    torch::Tensor t;
-    in.read(key, t);
-    out.write(key, t);
-  }
-  torch::serialize::InputArchive weights;
-  in.read("net", weights);
-  GqcnnNet copy(GqcnnNetConfig{});
-  copy->load(weights);
-  torch::serialize::OutputArchive copy_weights;
-  copy->save(copy_weights);
-  out.write("net", copy_weights);
-  out.write("config", torch::tensor({1, 8, 16, 7, 3, 128, 16, 128, 0}, torch::kInt64));
-  const fs::path v1 = dir.path() / "v1.pt";
-  out.save_to(v1.string());
+  RewriteConfig(v2, v1, torch::tensor({1, 8, 16, 7, 3, 128, 16, 128, 0}, torch::kInt64), &net);
   auto a = GqcnnModel::Load(v1);
   auto b = GqcnnModel::Load(v2);
   ASSERT_TRUE(a.ok()) << a.error().message;
@@ -164,14 +168,8 @@ TEST(GqcnnModelTest, ReadsVersionOneFiles) {
   RandomInputs(10, 5, &crops, &depths);
   EXPECT_EQ(a.value().Predict(crops, depths), b.value().Predict(crops, depths));
   // A version-2 config of version 1's length is refused.
-  torch::serialize::OutputArchive bad;
-  for (const char* key : {"kind", "normalisation", "card"}) {
-    torch::Tensor t;
-    in.read(key, t);
-    bad.write(key, t);
-  }
-  bad.write("config", torch::tensor({2, 8, 16, 7, 3, 128, 16, 128, 0}, torch::kInt64));
-  bad.save_to((dir.path() / "short.pt").string());
+  RewriteConfig(v2, dir.path() / "short.pt",
+                torch::tensor({2, 8, 16, 7, 3, 128, 16, 128, 0}, torch::kInt64), &net);
   auto s = GqcnnModel::Load(dir.path() / "short.pt");
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("wrong length"), std::string::npos) << s.error().message;
@@ -242,18 +240,8 @@ TEST(GqcnnModelTest, RefusesMissingBrokenAndForeignFiles) {
   EXPECT_NE(f.error().message.find("not a GQ-CNN model"), std::string::npos) << f.error().message;
 
   // Another format version.
-  {
-    torch::serialize::InputArchive in;
-    in.load_from(good.string());
-    torch::serialize::OutputArchive out;
-    for (const char* key : {"kind", "normalisation", "card"}) {
-      torch::Tensor t;
-      in.read(key, t);
-      out.write(key, t);
-    }
-    out.write("config", torch::tensor({99, 8, 16, 7, 3, 128, 16, 128, 0}, torch::kInt64));
-    out.save_to((dir.path() / "v99.pt").string());
-  }
+  RewriteConfig(good, dir.path() / "v99.pt",
+                torch::tensor({99, 8, 16, 7, 3, 128, 16, 128, 0}, torch::kInt64));
   auto v = GqcnnModel::Load(dir.path() / "v99.pt");
   ASSERT_FALSE(v.ok());
   EXPECT_NE(v.error().message.find("format version 99"), std::string::npos) << v.error().message;
