@@ -34,6 +34,11 @@ constexpr double kMinCameraToFloorM = 0.01;  // a "floor" through the camera is 
 constexpr double kMinFloorNormalZ = 0.5;     // floors seen at > 60 deg from the optical axis: no
 constexpr int kRefineRounds = 2;
 constexpr std::size_t kMaxScoringPoints = 5000;  // RANSAC scores hypotheses on this many points
+// A surface nearer than min_depth_m excludes what is joined to it: neighbours whose heights
+// differ by at most this (FgeParams::seam_step_m's default) and that stand this high above the
+// floor (PclParams::min_height_m's default), so the table it rests on is not joined.
+constexpr float kJoinedStepM = 0.010f;
+constexpr float kJoinedAboveFloorM = 0.006f;
 
 // 255 where the depth is NaN, infinite or not positive.
 cv::Mat1b MissingMask(const cv::Mat1f& depth_m) {
@@ -307,6 +312,29 @@ std::optional<Error> CheckInputs(const DepthImage& depth, const Camera& camera,
   return std::nullopt;
 }
 
+// Surfaces nearer than min_depth_m, and every surface above the floor joined to them without a
+// height step of kJoinedStepM: a wrist camera's fingers reach down towards the table, so their
+// tips (and the mixed pixels along their outline) lie deeper than the depth that cuts their base.
+cv::Mat1b NearAndJoined(const Scene& scene, double min_depth_m) {
+  const cv::Mat1b near = scene.depth_filled_m < static_cast<float>(min_depth_m);
+  const cv::Mat1b above_floor = scene.height_m > kJoinedAboveFloorM;
+  // floodFill's mask is 1 pixel larger on each side; non-zero stops the fill.
+  constexpr unsigned char kBlocked = 1, kJoined = 2;
+  cv::Mat1b fill(near.rows + 2, near.cols + 2, kBlocked);
+  fill(cv::Rect(1, 1, near.cols, near.rows)).setTo(0, above_floor);
+  cv::Mat heights = scene.height_m;  // only read: FLOODFILL_MASK_ONLY
+  for (int v = 0; v < near.rows; ++v) {
+    const unsigned char* near_row = near.ptr<unsigned char>(v);
+    const unsigned char* fill_row = fill.ptr<unsigned char>(v + 1) + 1;
+    for (int u = 0; u < near.cols; ++u) {
+      if (near_row[u] == 0 || fill_row[u] != 0) continue;  // not near, table, or filled already
+      cv::floodFill(heights, fill, cv::Point(u, v), cv::Scalar(), nullptr, cv::Scalar(kJoinedStepM),
+                    cv::Scalar(kJoinedStepM), 4 | cv::FLOODFILL_MASK_ONLY | (kJoined << 8));
+    }
+  }
+  return near | (fill(cv::Rect(1, 1, near.cols, near.rows)) == kJoined);
+}
+
 }  // namespace
 
 Result<Scene> Preprocess(const DepthImage& depth, const Camera& camera,
@@ -349,7 +377,7 @@ void RestrictContact(Scene& scene, const cv::Mat1b& region_of_interest, double m
   }
   cv::Mat1b allowed(size, 255);
   if (!region_of_interest.empty()) allowed.setTo(0, region_of_interest == 0);
-  if (min_depth_m > 0) allowed.setTo(0, scene.depth_filled_m < static_cast<float>(min_depth_m));
+  if (min_depth_m > 0) allowed.setTo(0, NearAndJoined(scene, min_depth_m));
   if (!scene.contact_allowed.empty()) allowed &= scene.contact_allowed;
   scene.contact_allowed = allowed;
 }

@@ -41,8 +41,11 @@ Result<Scene> Preprocess(const DepthImage& depth, const Camera& camera,
 
 /// Where the planners may put contacts: inside `region_of_interest` (image size, non-zero =
 /// allowed; empty = the whole image) and on surfaces at least `min_depth_m` from the camera
-/// along the optical axis (0 = no limit). Surfaces outside stay obstacles: e.g. the robot's own
-/// fingers in a wrist camera's view, or the neighbours of the one object a mask selects.
+/// along the optical axis (0 = no limit), and not joined to a nearer one: surfaces above the floor
+/// reached from a surface nearer than `min_depth_m` without a height step of 10 mm belong to it
+/// (a wrist camera's fingers reach down towards the table, their tips deeper than their base).
+/// Surfaces outside stay obstacles: e.g. the robot's own fingers in a wrist camera's view, or the
+/// neighbours of the one object a mask selects.
 /// Repeated calls narrow the allowed region further.
 /// @throws std::invalid_argument if the mask's size differs from the scene's or min_depth_m is
 /// negative or not finite.

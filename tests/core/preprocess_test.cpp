@@ -160,5 +160,34 @@ TEST(Preprocess, RejectsEmptyImageAndBadIntrinsics) {
   EXPECT_EQ(Preprocess(synth.depth, bad).error().code, ErrorCode::kInvalidArgument);
 }
 
+// A wrist camera's finger reaches down towards the table: min_depth_m cuts its base, and the
+// rest of it, joined to the base without a height step, is excluded too. A block touching its
+// tip across a 3 cm step, a box elsewhere and the table stay graspable.
+TEST(RestrictContact, SurfacesJoinedToANearSurfaceAreExcludedToo) {
+  SceneSpec spec;  // camera 0.6 m above the table, looking straight down
+  spec.boxes = {Box{0.06, 0.0, 0.03, 0.04, 0.040, 0.0, 2}};
+  auto synth = RenderScene(spec);
+  const cv::Rect finger(150, 200, 101, 80), block(251, 200, 30, 80);
+  for (int v = finger.y; v < finger.y + finger.height; ++v) {
+    for (int u = finger.x; u < finger.x + finger.width; ++u) {  // 0.20 m high down to 0.02 m
+      synth.depth.depth_m(v, u) = static_cast<float>(0.6 - (0.20 - 0.18 * (u - finger.x) / 100.0));
+    }
+  }
+  synth.depth.depth_m(block).setTo(0.6 - 0.05);
+  auto scene = Preprocess(synth.depth, synth.camera);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  constexpr double kMinDepthM = 0.5;
+  ASSERT_GT(cv::countNonZero(synth.depth.depth_m(finger) >= kMinDepthM), 0)
+      << "part of the finger must lie beyond the cut";
+  RestrictContact(scene.value(), {}, kMinDepthM);
+  const cv::Mat1b& allowed = scene.value().contact_allowed;
+  EXPECT_EQ(cv::countNonZero(allowed(finger)), 0);
+  EXPECT_EQ(cv::countNonZero(allowed(block)), block.area());
+  const cv::Mat1b box = ObjectInterior(synth.object_id, 2);
+  EXPECT_EQ(cv::countNonZero(allowed & box), cv::countNonZero(box));
+  const cv::Rect table_corner(0, 0, 100, 100);
+  EXPECT_EQ(cv::countNonZero(allowed(table_corner)), table_corner.area());
+}
+
 }  // namespace
 }  // namespace softgrasp::core

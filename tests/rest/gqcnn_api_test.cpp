@@ -104,12 +104,10 @@ TEST_F(GqcnnApiTest, RanksGraspsMostlyOnTheObjectByPredictedQuality) {
       EXPECT_LT(depth, 0.9);
       EXPECT_NEAR(g["pose"]["position_m"][2].get<double>(), depth, 1e-6);
     }
-    // A single object on a table: most of the five best grasps are centred on it. (Not all:
-    // on frame 2 two grasps sit beside the gripper's finger tip, docs/gqcnn.md; a segmask
-    // keeps every grasp on the object, next test.)
-    int on_object = 0;
-    for (const json& g : body["grasps"]) on_object += CentreOnMask(g, Segmask(i)) ? 1 : 0;
-    EXPECT_GE(on_object, 3) << body["grasps"].dump();
+    // A single object on a table: the five best grasps are centred on it, none on the
+    // fingers' tips, which reach deeper than 0.6 m (min_depth_m excludes the surfaces joined to
+    // the nearer ones too; before it did, frame 2 had two grasps there, docs/gqcnn.md).
+    for (const json& g : body["grasps"]) EXPECT_TRUE(CentreOnMask(g, Segmask(i))) << g.dump();
   }
 }
 
