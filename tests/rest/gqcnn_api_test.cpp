@@ -66,7 +66,7 @@ class GqcnnApiTest : public ::testing::Test {
 };
 RunningServer* GqcnnApiTest::server_ = nullptr;
 
-TEST_F(GqcnnApiTest, RanksGraspsMostlyOnTheObjectByPredictedQuality) {
+TEST_F(GqcnnApiTest, RanksGraspsOnTheObjectByPredictedQuality) {
   for (int i = 0; i < 3; ++i) {
     SCOPED_TRACE("single_depth_" + std::to_string(i));
     // The gripper's own fingers are in the bottom corners of these wrist-camera frames, 0.55 m
