@@ -1,9 +1,12 @@
 // Format sniffing and dispatch for depth uploads, plus the helpers the format decoders share.
 #include "service/io/depth_codec.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <utility>
+#include <vector>
 
 #include "service/io/depth_codec_internal.h"
 
@@ -57,6 +60,29 @@ void MarkMissing(cv::Mat1f& depth) {
   });
 }
 
+// A depth image whose median reading lies farther than this is in the wrong unit (millimetres
+// read as metres): no scene this service plans for is 100 m from the camera.
+constexpr double kMaxMedianDepthM = 100.0;
+constexpr int kMedianSamples = 100000;  // pixels sampled (evenly strided) for the median
+
+/// The median of the valid (finite, positive) depths among about kMedianSamples pixels; NaN when
+/// none is valid.
+double SampledMedianDepth(const cv::Mat1f& depth) {
+  const std::size_t total = depth.total();
+  const std::size_t stride = std::max<std::size_t>(1, total / kMedianSamples);
+  std::vector<float> valid;
+  valid.reserve(total / stride + 1);
+  const cv::Mat1f continuous = depth.isContinuous() ? depth : depth.clone();
+  const float* z = continuous[0];
+  for (std::size_t i = 0; i < total; i += stride) {
+    if (std::isfinite(z[i]) && z[i] > 0.0f) valid.push_back(z[i]);
+  }
+  if (valid.empty()) return std::numeric_limits<double>::quiet_NaN();
+  auto middle = valid.begin() + static_cast<std::ptrdiff_t>(valid.size() / 2);
+  std::nth_element(valid.begin(), middle, valid.end());
+  return *middle;
+}
+
 }  // namespace
 
 const char* DepthFormatName(DepthFormat format) {
@@ -82,9 +108,10 @@ core::Result<DepthFormat> SniffDepthFormat(std::string_view bytes) {
   if (bytes.empty()) {
     return detail::DepthError(core::ErrorCode::kUnsupportedMediaType, "the depth upload is empty");
   }
-  return detail::DepthError(core::ErrorCode::kUnsupportedMediaType,
-                            "unrecognised depth format: expected float32 .npy, 16-bit PNG or "
-                            "32-bit float TIFF");
+  return detail::DepthError(
+      core::ErrorCode::kUnsupportedMediaType,
+      "unrecognised depth format: expected .npy (float32, float64 or uint16), 16-bit PNG or "
+      "32-bit float TIFF");
 }
 
 core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
@@ -94,7 +121,7 @@ core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
   core::Result<cv::Mat1f> image = cv::Mat1f();
   switch (format.value()) {
     case DepthFormat::kNpy:
-      image = detail::DecodeNpy(bytes, options.max_pixels);
+      image = detail::DecodeNpy(bytes, options);
       break;
     case DepthFormat::kPng16:
       image = detail::DecodePng16(bytes, options);
@@ -106,6 +133,15 @@ core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
   if (!image) return image.error();
   core::DepthImage depth{std::move(image).value()};
   MarkMissing(depth.depth_m);
+  if (const double median = SampledMedianDepth(depth.depth_m); median > kMaxMedianDepthM) {
+    char value[32];
+    std::snprintf(value, sizeof(value), "%.4g", median);
+    return detail::DepthError(
+        core::ErrorCode::kInvalidArgument,
+        std::string("the depth's median reading is ") + value +
+            " m: send metres (float NPY or TIFF) or counts of png_unit_m (16-bit PNG, uint16 "
+            "NPY; millimetres by default); millimetres in a float file must be divided by 1000");
+  }
   return depth;
 }
 

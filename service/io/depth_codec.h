@@ -17,18 +17,20 @@ enum class DepthFormat { kNpy, kPng16, kTiff };
 const char* DepthFormatName(DepthFormat format);  ///< "npy", "png16", "tiff"
 
 struct DepthDecodeOptions {
-  double png_unit_m = 0.001;              ///< metres per PNG count (default: millimetres)
+  double png_unit_m = 0.001;  ///< metres per 16-bit PNG or uint16 NPY count (default: mm)
   std::int64_t max_pixels = 4096 * 4096;  ///< larger images are refused before decoding (413)
 };
 
 /// Recognises the format from the magic bytes. kUnsupportedMediaType when none matches.
 core::Result<DepthFormat> SniffDepthFormat(std::string_view bytes);
 
-/// Decodes float32 .npy in metres (shape (H,W) or (H,W,1), either byte order), 16-bit PNG
-/// (counts x png_unit_m), or 32-bit float TIFF in metres. 0 and NaN (and inf, negative) become NaN.
+/// Decodes .npy (shape (H,W) or (H,W,1), either byte order; float32 or float64 in metres, or
+/// uint16 counts x png_unit_m), 16-bit PNG (counts x png_unit_m), or 32-bit float TIFF in metres.
+/// 0 and NaN (and inf, negative) become NaN.
 /// Errors: kUnsupportedMediaType (unknown format, wrong dtype or bit depth), kInvalidArgument
-/// (corrupt or truncated file, zero-size image), kPayloadTooLarge (over max_pixels); the message
-/// says which, field = "depth".
+/// (corrupt or truncated file, zero-size image, a median reading over 100 m: millimetres read as
+/// metres), kPayloadTooLarge (over max_pixels); the message says which, field = "depth"
+/// ("png_unit_m" for a bad unit).
 core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
                                            const DepthDecodeOptions& options = {});
 

@@ -24,7 +24,8 @@ std::optional<core::Error> CheckImageSize(std::int64_t height, std::int64_t widt
 /// `text` cut to `max_chars` with non-printable bytes replaced, safe to quote in a JSON message.
 std::string Printable(std::string_view text, std::size_t max_chars = 24);
 
-core::Result<cv::Mat1f> DecodeNpy(std::string_view bytes, std::int64_t max_pixels);
+/// uint16 NPY counts are png_unit_m metres each, as 16-bit PNG counts are.
+core::Result<cv::Mat1f> DecodeNpy(std::string_view bytes, const DepthDecodeOptions& options);
 core::Result<cv::Mat1f> DecodePng16(std::string_view bytes, const DepthDecodeOptions& options);
 core::Result<cv::Mat1f> DecodeTiff(std::string_view bytes, std::int64_t max_pixels);
 

@@ -1,7 +1,10 @@
-// NumPy .npy: float32 depth images in metres, shape (H, W) or (H, W, 1), either byte order.
+// NumPy .npy depth images, shape (H, W) or (H, W, 1), either byte order: float32 or float64 in
+// metres, or uint16 counts of png_unit_m (a raw sensor frame saved with numpy.save).
 // Format: "\x93NUMPY", major, minor, header length (2 bytes LE in 1.0, 4 bytes in 2.0/3.0),
 // a Python dict literal padded with spaces and '\n', then the raw array data.
+#include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -20,7 +23,9 @@ using detail::DepthError;
 
 constexpr std::size_t kMagicSize = 6;  // "\x93NUMPY"
 constexpr std::size_t kMaxDims = 32;   // numpy's own limit is 32 (64 in numpy 2)
-constexpr const char* kAcceptedDtypes = "expected float32 ('<f4' or '>f4')";
+constexpr const char* kAcceptedDtypes =
+    "expected float32 or float64 in metres ('<f4', '>f4', '<f8', '>f8') or uint16 counts of "
+    "png_unit_m ('<u2', '>u2')";
 
 struct NpyHeader {
   std::string descr;
@@ -216,10 +221,21 @@ std::string ShapeText(const std::vector<std::int64_t>& shape) {
   return text + (shape.size() == 1 ? ",)" : ")");
 }
 
-/// The dtype is float32 in a known byte order; returns whether it is big-endian.
-core::Result<bool> CheckDtype(const std::string& descr) {
-  if (descr == "<f4") return false;
-  if (descr == ">f4") return true;
+/// A supported element type: its size, byte order and kind.
+struct Dtype {
+  std::size_t bytes = 4;
+  bool big_endian = false;
+  bool unsigned_integer = false;  ///< uint16 counts; otherwise IEEE floating point
+};
+
+core::Result<Dtype> CheckDtype(const std::string& descr) {
+  if (descr.size() == 3 && (descr[0] == '<' || descr[0] == '>')) {
+    const bool big = descr[0] == '>';
+    const std::string_view kind(descr.data() + 1, 2);
+    if (kind == "f4") return Dtype{4, big, false};
+    if (kind == "f8") return Dtype{8, big, false};
+    if (kind == "u2") return Dtype{2, big, true};
+  }
   return DepthError(ErrorCode::kUnsupportedMediaType, "NPY dtype '" + detail::Printable(descr) +
                                                           "' is not supported; " + kAcceptedDtypes);
 }
@@ -237,21 +253,41 @@ core::Result<cv::Size> CheckShape(const std::vector<std::int64_t>& shape, std::i
   return cv::Size(static_cast<int>(shape[1]), static_cast<int>(shape[0]));
 }
 
-std::uint32_t ByteSwap(std::uint32_t v) {
-  return (v >> 24) | ((v >> 8) & 0xff00u) | ((v << 8) & 0xff0000u) | (v << 24);
+/// The element at `p` (dtype.bytes bytes in dtype's byte order) as a float; counts times
+/// `count_unit_m`.
+float ReadElement(const char* p, const Dtype& dtype, double count_unit_m) {
+  unsigned char raw[8];
+  std::memcpy(raw, p, dtype.bytes);
+  if (dtype.big_endian != (std::endian::native == std::endian::big)) {
+    std::reverse(raw, raw + dtype.bytes);
+  }
+  switch (dtype.bytes) {
+    case 2: {
+      std::uint16_t count;
+      std::memcpy(&count, raw, 2);
+      return static_cast<float>(count * count_unit_m);
+    }
+    case 8: {
+      double value;
+      std::memcpy(&value, raw, 8);
+      return static_cast<float>(value);
+    }
+    default: {
+      float value;
+      std::memcpy(&value, raw, 4);
+      return value;
+    }
+  }
 }
 
-/// Copies `rows` x `cols` floats stored row after row in `data`, swapping bytes when asked.
-cv::Mat1f CopyPixels(std::string_view data, int rows, int cols, bool swap_bytes) {
+/// Copies `rows` x `cols` elements stored row after row in `data` as floats.
+cv::Mat1f CopyPixels(std::string_view data, int rows, int cols, const Dtype& dtype,
+                     double count_unit_m) {
   cv::Mat1f image(rows, cols);
-  const std::size_t row_bytes = static_cast<std::size_t>(cols) * sizeof(float);
+  const char* p = data.data();
   for (int r = 0; r < rows; ++r) {
     float* row = image[r];
-    std::memcpy(row, data.data() + static_cast<std::size_t>(r) * row_bytes, row_bytes);
-    if (!swap_bytes) continue;
-    for (int c = 0; c < cols; ++c) {
-      row[c] = std::bit_cast<float>(ByteSwap(std::bit_cast<std::uint32_t>(row[c])));
-    }
+    for (int c = 0; c < cols; ++c, p += dtype.bytes) row[c] = ReadElement(p, dtype, count_unit_m);
   }
   return image;
 }
@@ -264,30 +300,37 @@ void AppendLittleEndian(std::string& out, std::uint32_t value, std::size_t size)
 
 namespace detail {
 
-core::Result<cv::Mat1f> DecodeNpy(std::string_view bytes, std::int64_t max_pixels) {
+core::Result<cv::Mat1f> DecodeNpy(std::string_view bytes, const DepthDecodeOptions& options) {
   auto layout = ReadLayout(bytes);
   if (!layout) return layout.error();
   const NpyHeader& header = layout.value().header;
-  const auto big_endian = CheckDtype(header.descr);
-  if (!big_endian) return big_endian.error();
-  const auto size = CheckShape(header.shape, max_pixels);
+  const auto dtype = CheckDtype(header.descr);
+  if (!dtype) return dtype.error();
+  if (dtype.value().unsigned_integer &&
+      !(std::isfinite(options.png_unit_m) && options.png_unit_m > 0)) {
+    return core::MakeError(ErrorCode::kInvalidArgument,
+                           "png_unit_m must be a positive number of metres per count",
+                           "png_unit_m");
+  }
+  const auto size = CheckShape(header.shape, options.max_pixels);
   if (!size) return size.error();
 
   const auto [cols, rows] = size.value();
   const std::string_view data = layout.value().data;
   const std::uint64_t needed =
-      static_cast<std::uint64_t>(rows) * static_cast<std::uint64_t>(cols) * sizeof(float);
+      static_cast<std::uint64_t>(rows) * static_cast<std::uint64_t>(cols) * dtype.value().bytes;
   if (data.size() < needed) {
     return DepthError(ErrorCode::kInvalidArgument,
                       "NPY data is truncated: shape " + ShapeText(header.shape) + " needs " +
                           std::to_string(needed) + " bytes, the file has " +
                           std::to_string(data.size()));
   }
-  const bool swap_bytes = big_endian.value() != (std::endian::native == std::endian::big);
-  if (!header.fortran_order) return CopyPixels(data, rows, cols, swap_bytes);
+  if (!header.fortran_order) {
+    return CopyPixels(data, rows, cols, dtype.value(), options.png_unit_m);
+  }
   // Fortran (column-major) order: the data is the transposed image stored row-major.
   cv::Mat1f image;
-  cv::transpose(CopyPixels(data, cols, rows, swap_bytes), image);
+  cv::transpose(CopyPixels(data, cols, rows, dtype.value(), options.png_unit_m), image);
   return image;
 }
 

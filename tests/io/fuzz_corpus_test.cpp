@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 #include <tiffio.h>
 
+#include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -27,6 +29,14 @@ constexpr std::uintmax_t kMaxSeedBytes = 20 * 1024;
 
 using Seeds = std::vector<std::pair<std::string, std::string>>;  // file name, bytes
 
+// The image's values as T, row after row (NaN becomes 0 for integers).
+template <typename T>
+std::vector<T> As(const cv::Mat1f& image) {
+  std::vector<T> out;
+  for (const float v : image) out.push_back(std::isfinite(v) ? static_cast<T>(v) : T{});
+  return out;
+}
+
 Seeds NpySeeds() {
   const cv::Mat1f depth = TestDepth(24, 32);
   const std::string npy = EncodeNpy(depth);
@@ -43,8 +53,12 @@ Seeds NpySeeds() {
       {"invalid_npy_truncated_data.npy", npy.substr(0, npy.size() - 7)},
       {"invalid_npy_zero_size.npy", MakeNpy(NpyDict("<f4", "(0, 32)"), "")},
       {"invalid_npy_malformed_header.npy", MakeNpy("{'descr': '<f4', 'shape': (24, 32", data)},
-      {"unsupported_npy_f8.npy", MakeNpy(NpyDict("<f8", "(24, 16)"), data)},
-      {"unsupported_npy_u2.npy", MakeNpy(NpyDict("<u2", "(24, 64)"), data)},
+      {"ok_npy_f8.npy", MakeNpy(NpyDict("<f8", "(24, 32)"), ElementBytes(As<double>(depth)))},
+      {"ok_npy_u2_big_endian.npy",
+       MakeNpy(NpyDict(">u2", "(24, 32)"), ElementBytes(As<std::uint16_t>(depth * 1000), true))},
+      {"invalid_npy_millimetres.npy",
+       MakeNpy(NpyDict("<f4", "(24, 32)"), FloatBytes(depth * 1000))},
+      {"unsupported_npy_i4.npy", MakeNpy(NpyDict("<i4", "(24, 32)"), data)},
       {"unsupported_npy_rgb.npy", MakeNpy(NpyDict("<f4", "(8, 32, 3)"), data)},
       {"too_large_npy_huge_shape.npy", MakeNpy(NpyDict("<f4", "(100000, 100000)"), data)},
       {"too_large_npy_overflow_shape.npy",

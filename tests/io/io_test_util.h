@@ -6,8 +6,10 @@
 #include <tiffio.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -66,6 +68,21 @@ inline std::string FloatBytes(const cv::Mat1f& values, bool big_endian = false) 
     std::string bytes = LittleEndian(std::bit_cast<std::uint32_t>(v), 4);
     if (big_endian) bytes = std::string(bytes.rbegin(), bytes.rend());
     out += bytes;
+  }
+  return out;
+}
+
+/// Little- or big-endian bytes of each value as T (e.g. double, std::uint16_t).
+template <typename T>
+std::string ElementBytes(const std::vector<T>& values, bool big_endian = false) {
+  std::string out;
+  for (const T v : values) {
+    char bytes[sizeof(T)];
+    std::memcpy(bytes, &v, sizeof(T));
+    if (big_endian != (std::endian::native == std::endian::big)) {
+      std::reverse(bytes, bytes + sizeof(T));
+    }
+    out.append(bytes, sizeof(T));
   }
   return out;
 }

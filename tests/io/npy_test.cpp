@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
@@ -19,6 +21,7 @@ namespace {
 using softgrasp::testing::TestData;
 
 using core::ErrorCode;
+using test::ElementBytes;
 using test::ExpectError;
 using test::FloatBytes;
 using test::MakeNpy;
@@ -98,13 +101,59 @@ TEST(NpyTest, AcceptsOtherKeyOrderDoubleQuotesAndPython2Longs) {
   ExpectSixValues(DecodeDepth(MakeNpy(dict, FloatBytes(kSixValues))));
 }
 
+// numpy.save of a depth computed in double precision (numpy's default float).
+TEST(NpyTest, AcceptsFloat64InMetresInEitherByteOrder) {
+  const std::vector<double> values = {0.5, 0.6, 0.7, 0.8, 0.9, 1.0};
+  ExpectSixValues(DecodeDepth(MakeNpy(NpyDict("<f8", "(2, 3)"), ElementBytes(values))));
+  ExpectSixValues(DecodeDepth(MakeNpy(NpyDict(">f8", "(2, 3)"), ElementBytes(values, true))));
+  ExpectSixValues(
+      DecodeDepth(MakeNpy(NpyDict("<f8", "(2, 3, 1)"), ElementBytes(values))));  // (H, W, 1)
+}
+
+// numpy.save of a raw sensor frame: uint16 counts of png_unit_m (millimetres by default, as a
+// 16-bit PNG's), 0 = missing.
+TEST(NpyTest, AcceptsUint16CountsOfThePngUnit) {
+  const std::vector<std::uint16_t> mm = {500, 600, 700, 800, 900, 1000};
+  ExpectSixValues(DecodeDepth(MakeNpy(NpyDict("<u2", "(2, 3)"), ElementBytes(mm))));
+  ExpectSixValues(DecodeDepth(MakeNpy(NpyDict(">u2", "(2, 3)"), ElementBytes(mm, true))));
+  const std::vector<std::uint16_t> tenths = {5000, 6000, 7000, 8000, 9000, 0};
+  const auto fine = DecodeDepth(MakeNpy(NpyDict("<u2", "(2, 3)"), ElementBytes(tenths)),
+                                DepthDecodeOptions{.png_unit_m = 0.0001});
+  ASSERT_TRUE(fine.ok()) << fine.error().message;
+  EXPECT_FLOAT_EQ(fine.value().depth_m(1, 1), 0.9f);
+  EXPECT_TRUE(std::isnan(fine.value().depth_m(1, 2))) << "0 is missing";
+  const auto bad_unit = DecodeDepth(MakeNpy(NpyDict("<u2", "(2, 3)"), ElementBytes(mm)),
+                                    DepthDecodeOptions{.png_unit_m = 0.0});
+  ASSERT_FALSE(bad_unit.ok());
+  EXPECT_EQ(bad_unit.error().field, "png_unit_m");
+  ExpectError(DecodeDepth(MakeNpy(NpyDict("<f8", "(2, 3)"), std::string(47, '\0'))),
+              ErrorCode::kInvalidArgument, "needs 48 bytes");
+}
+
+// Millimetres in a float file (or counts with a unit 1,000 times too large) would put the scene
+// hundreds of metres away: a clear error instead of "no floor plane found".
+TEST(NpyTest, RefusesMillimetresReadAsMetresSayingSo) {
+  const std::vector<double> mm = {500, 600, 700, 800, 900, 1000};
+  const auto result = DecodeDepth(MakeNpy(NpyDict("<f8", "(2, 3)"), ElementBytes(mm)));
+  ExpectError(result, ErrorCode::kInvalidArgument, "median reading is 800 m");
+  EXPECT_THAT(result.error().message, HasSubstr("divided by 1000"));
+  const std::vector<std::uint16_t> counts = {500, 600, 700, 800, 900, 1000};
+  ExpectError(DecodeDepth(MakeNpy(NpyDict("<u2", "(2, 3)"), ElementBytes(counts)),
+                          DepthDecodeOptions{.png_unit_m = 1.0}),
+              ErrorCode::kInvalidArgument, "median reading is 800 m");
+  // Far readings are fine while the median is plausible.
+  const std::vector<double> some_far = {0.5, 0.6, 0.7, 0.8, 900, 1000};
+  EXPECT_TRUE(DecodeDepth(MakeNpy(NpyDict("<f8", "(2, 3)"), ElementBytes(some_far))).ok());
+}
+
 TEST(NpyTest, RejectsOtherDtypesNamingThem) {
   const std::string data(6 * 8, '\0');
-  for (const std::string dtype : {"<f8", "<u2", "|f4", "<i4", "|u1"}) {
+  for (const std::string dtype : {"|f4", "<f2", "<i4", "<i2", "|u1", "<u4", "<c8"}) {
     SCOPED_TRACE(dtype);
     const auto result = DecodeDepth(MakeNpy(NpyDict(dtype, "(2, 3)"), data));
     ExpectError(result, ErrorCode::kUnsupportedMediaType, "'" + dtype + "'");
-    EXPECT_THAT(result.error().message, HasSubstr("'<f4' or '>f4'"));
+    EXPECT_THAT(result.error().message, HasSubstr("'<f4', '>f4', '<f8', '>f8'"));
+    EXPECT_THAT(result.error().message, HasSubstr("'<u2', '>u2'"));
   }
 }
 

@@ -165,6 +165,15 @@ TEST(TiffTest, DecodesBigEndianTiledAndCompressedFiles) {
                   image);
 }
 
+// Float TIFF depth is in metres: a file in millimetres is refused saying so (NpyTest has the
+// same for float NPY and for counts with a unit 1,000 times too large).
+TEST(TiffTest, RefusesMillimetresReadAsMetres) {
+  const cv::Mat1f metres = TestDepth(20, 20);
+  ASSERT_TRUE(DecodeDepth(EncodeTiffFloat(metres)).ok());
+  ExpectError(DecodeDepth(EncodeTiffFloat(metres * 1000)), ErrorCode::kInvalidArgument,
+              "must be divided by 1000");
+}
+
 TEST(TiffTest, RejectsUint16Samples) {
   ExpectError(DecodeDepth(EncodeWithOpenCv(".tiff", cv::Mat1w(4, 4, 1000))),
               ErrorCode::kUnsupportedMediaType,

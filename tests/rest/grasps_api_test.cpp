@@ -7,8 +7,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
+#include <vector>
 
 #include "service/io/depth_codec.h"
+#include "tests/io/io_test_util.h"
 #include "tests/rest/server_fixture.h"
 
 namespace softgrasp::rest {
@@ -152,6 +154,33 @@ TEST_F(GraspsApiTest, Png16InMillimetresGivesTheSameGraspsAsNpy) {
                                                            << npy_grasps.dump();
   EXPECT_TRUE(best_is_among_near_best(npy_grasps[0], png)) << png.dump() << "\n"
                                                            << npy_grasps.dump();
+}
+
+// numpy.save of a depth computed in double precision: the same frame as float64 plans the same
+// grasps (float -> double -> float is exact); the frame in millimetres is a 400 saying so.
+TEST_F(GraspsApiTest, Float64NpyGivesTheSameGraspsAndMillimetresAreRefused) {
+  const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
+  const auto depth = io::DecodeDepth(npy);
+  ASSERT_TRUE(depth.ok());
+  const cv::Mat1f& metres = depth.value().depth_m;
+  const std::string shape =
+      "(" + std::to_string(metres.rows) + ", " + std::to_string(metres.cols) + ")";
+  std::vector<double> as_double(metres.begin(), metres.end());
+  const std::string f8 =
+      io::test::MakeNpy(io::test::NpyDict("<f8", shape), io::test::ElementBytes(as_double));
+  const auto reply_f8 = server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", f8));
+  const auto reply_f4 = server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", npy));
+  ASSERT_EQ(reply_f8.status, 200) << reply_f8.body;
+  ASSERT_EQ(reply_f4.status, 200) << reply_f4.body;
+  EXPECT_EQ(json::parse(reply_f8.body)["grasps"], json::parse(reply_f4.body)["grasps"]);
+
+  for (double& z : as_double) z *= 1000.0;
+  const std::string mm =
+      io::test::MakeNpy(io::test::NpyDict("<f8", shape), io::test::ElementBytes(as_double));
+  const json body = ExpectError(
+      server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", mm)), 400, "depth");
+  EXPECT_NE(body["error"]["message"].get<std::string>().find("divided by 1000"), std::string::npos)
+      << body.dump();
 }
 
 TEST_F(GraspsApiTest, OverlayPngHasTheImageSize) {
