@@ -41,8 +41,12 @@ core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
 /// truncated, kPayloadTooLarge over max_pixels), with field = "segmask".
 core::Result<cv::Mat1b> DecodeMask(std::string_view bytes, std::int64_t max_pixels);
 
-/// Parses GQ-CNN's `.intr` JSON: {"_fx", "_fy", "_cx", "_cy", "_width", "_height", "_frame"?}.
-/// kInvalidArgument (field = the key at fault) when malformed, missing or non-positive.
+/// Parses camera intrinsics JSON in the layout of GQ-CNN's `.intr` ({"_fx", "_fy", "_cx", "_cy",
+/// "_width", "_height", "_frame"?}), a ROS CameraInfo ({"width", "height", "K" or "k": 3 x 3
+/// row-major}), Open3D's PinholeCameraIntrinsic ({"width", "height", "intrinsic_matrix": 3 x 3
+/// column-major}) or librealsense's intrinsics ({"width", "height", "fx", "fy", "ppx", "ppy"}).
+/// kInvalidArgument (field = the key at fault, "intrinsics" when no layout matches) when
+/// malformed, missing or non-positive, or when a matrix's last row is not (0, 0, 1).
 core::Result<core::Camera> ParseIntrinsicsJson(std::string_view json);
 
 /// Float32 little-endian .npy, shape (H, W).

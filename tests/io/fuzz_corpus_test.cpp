@@ -104,6 +104,14 @@ Seeds OtherSeeds() {
        R"("_width": 640, "_skew": 0.0, "_K": 0, "_frame": "primesense_overhead"})"},
       {"intr_bad_negative_fx.intr",
        R"({"_cy": 239.5, "_cx": 319.5, "_fy": 525.0, "_height": 480, "_fx": -5, "_width": 640})"},
+      {"intr_ok_ros_camera_info.json",
+       R"({"height": 480, "width": 640, "K": [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]})"},
+      {"intr_ok_open3d.json",
+       R"({"width": 640, "height": 480, "intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]})"},
+      {"intr_ok_realsense.json",
+       R"({"width": 640, "height": 480, "ppx": 319.5, "ppy": 239.5, "fx": 525, "fy": 525})"},
+      {"intr_bad_ros_column_major.json",
+       R"({"height": 480, "width": 640, "K": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]})"},
   };
 }
 

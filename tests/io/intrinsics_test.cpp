@@ -1,4 +1,5 @@
-// GQ-CNN .intr parsing: the shipped sample cameras and malformed documents.
+// Intrinsics parsing: GQ-CNN .intr (the shipped sample cameras), ROS CameraInfo, Open3D and
+// librealsense layouts, and malformed documents.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -82,6 +83,73 @@ TEST(IntrinsicsTest, NamesTheKeyAtFault) {
   ExpectFieldError(R"({"_fx": 525, "_fy": 525, "_cx": 1, "_cy": 1, "_width": 1e12,
                        "_height": 480})",
                    "_width");
+}
+
+// The Primesense camera of ../shared/data as the robot software around us writes intrinsics.
+TEST(IntrinsicsTest, ReadsRosOpen3dAndRealsenseLayoutsAsTheIntrFile) {
+  const auto intr = ParseIntrinsicsJson(ReadFile(TestData("gqcnn/primesense/primesense.intr")));
+  ASSERT_TRUE(intr.ok());
+  const std::string layouts[] = {
+      // ROS 1 sensor_msgs/CameraInfo (rosbridge / rostopic echo as JSON), K row-major
+      R"({"header": {"frame_id": "camera"}, "height": 480, "width": 640,
+          "distortion_model": "plumb_bob", "D": [0, 0, 0, 0, 0],
+          "K": [525.0, 0.0, 319.5, 0.0, 525.0, 239.5, 0.0, 0.0, 1.0],
+          "P": [525.0, 0.0, 319.5, 0.0, 0.0, 525.0, 239.5, 0.0, 0.0, 0.0, 1.0, 0.0]})",
+      // ROS 2 field names
+      R"({"height": 480, "width": 640, "d": [], "k": [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]})",
+      // the matrix as three rows
+      R"({"height": 480, "width": 640, "K": [[525, 0, 319.5], [0, 525, 239.5], [0, 0, 1]]})",
+      // Open3D's write_pinhole_camera_intrinsic: column-major
+      R"({"width": 640, "height": 480,
+          "intrinsic_matrix": [525.0, 0.0, 0.0, 0.0, 525.0, 0.0, 319.5, 239.5, 1.0]})",
+      // librealsense rs2_intrinsics
+      R"({"width": 640, "height": 480, "ppx": 319.5, "ppy": 239.5, "fx": 525.0, "fy": 525.0,
+          "model": "Brown Conrady", "coeffs": [0, 0, 0, 0, 0]})",
+  };
+  for (const std::string& json : layouts) {
+    SCOPED_TRACE(json);
+    const auto camera = ParseIntrinsicsJson(json);
+    ASSERT_TRUE(camera.ok()) << camera.error().message;
+    EXPECT_DOUBLE_EQ(camera.value().fx, intr.value().fx);
+    EXPECT_DOUBLE_EQ(camera.value().fy, intr.value().fy);
+    EXPECT_DOUBLE_EQ(camera.value().cx, intr.value().cx);
+    EXPECT_DOUBLE_EQ(camera.value().cy, intr.value().cy);
+    EXPECT_EQ(camera.value().width, intr.value().width);
+    EXPECT_EQ(camera.value().height, intr.value().height);
+  }
+  // fx != fy and cx != cy tell the two orders apart.
+  const auto ros = ParseIntrinsicsJson(
+      R"({"width": 640, "height": 480, "K": [600, 0, 330, 0, 610, 250, 0, 0, 1]})");
+  const auto open3d = ParseIntrinsicsJson(
+      R"({"width": 640, "height": 480, "intrinsic_matrix": [600, 0, 0, 0, 610, 0, 330, 250, 1]})");
+  ASSERT_TRUE(ros.ok() && open3d.ok());
+  for (const core::Camera& c : {ros.value(), open3d.value()}) {
+    EXPECT_DOUBLE_EQ(c.fx, 600);
+    EXPECT_DOUBLE_EQ(c.fy, 610);
+    EXPECT_DOUBLE_EQ(c.cx, 330);
+    EXPECT_DOUBLE_EQ(c.cy, 250);
+  }
+}
+
+TEST(IntrinsicsTest, NamesTheKeyAtFaultInEveryLayout) {
+  // A matrix in the other order would put the principal point in the wrong place: refused.
+  ExpectFieldError(R"({"width": 640, "height": 480, "K": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]})",
+                   "K");
+  ExpectFieldError(
+      R"({"width": 640, "height": 480, "intrinsic_matrix": [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]})",
+      "intrinsic_matrix");
+  ExpectFieldError(R"({"width": 640, "height": 480, "K": [525, 0, 319.5, 0, 525, 239.5, 0, 0]})",
+                   "K");
+  ExpectFieldError(R"({"width": 640, "height": 480, "k": "525 0 319.5 0 525 239.5 0 0 1"})", "k");
+  ExpectFieldError(R"({"width": 640, "height": 480, "K": [0, 0, 319.5, 0, 525, 239.5, 0, 0, 1]})",
+                   "K");
+  ExpectFieldError(R"({"height": 480, "K": [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]})", "width");
+  ExpectFieldError(R"({"width": 640, "height": 480, "ppx": 319.5, "ppy": 239.5, "fx": 525})", "fy");
+  const auto unknown = ParseIntrinsicsJson(R"({"focal": 525, "width": 640, "height": 480})");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_EQ(unknown.error().field, "intrinsics");
+  EXPECT_NE(unknown.error().message.find("ROS CameraInfo"), std::string::npos)
+      << unknown.error().message;
 }
 
 TEST(IntrinsicsTest, RejectsNonObjects) {

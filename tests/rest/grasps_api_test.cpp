@@ -359,6 +359,36 @@ TEST_F(GraspsApiTest, IntrinsicsOfAnotherImageSizeAreRefused) {
   ExpectError(reply, 422, "intrinsics");
 }
 
+// A ROS node sends its CameraInfo as JSON (a form field, no file name): the same camera and the
+// same grasps as the .intr file; a column-major matrix in "K" is refused naming it.
+TEST_F(GraspsApiTest, RosCameraInfoIsReadAsTheIntrFile) {
+  const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
+  const auto intr = server_->Send(MultipartRequest(
+      "/v1/grasps",
+      {{"depth", npy, "d.npy"},
+       {"intrinsics", ReadFileBytes(TestData("gqcnn/primesense/primesense.intr")), "p.intr"}}));
+  const auto ros = server_->Send(MultipartRequest(
+      "/v1/grasps", {{"depth", npy, "d.npy"},
+                     {"intrinsics",
+                      R"({"header": {"frame_id": "wrist_camera"}, "height": 480, "width": 640,
+            "distortion_model": "plumb_bob", "D": [0.0, 0.0, 0.0, 0.0, 0.0],
+            "K": [525.0, 0.0, 319.5, 0.0, 525.0, 239.5, 0.0, 0.0, 1.0]})",
+                      ""}}));
+  ASSERT_EQ(intr.status, 200) << intr.body;
+  ASSERT_EQ(ros.status, 200) << ros.body;
+  EXPECT_EQ(json::parse(ros.body)["camera"], json::parse(intr.body)["camera"]);
+  EXPECT_EQ(json::parse(ros.body)["camera"]["source"], "request");
+  EXPECT_EQ(json::parse(ros.body)["grasps"], json::parse(intr.body)["grasps"]);
+  ExpectError(
+      server_->Send(MultipartRequest(
+          "/v1/grasps",
+          {{"depth", npy, "d.npy"},
+           {"intrinsics",
+            R"({"height": 480, "width": 640, "K": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]})",
+            ""}})),
+      400, "K");
+}
+
 TEST(GraspsApiLimitsTest, ImagesOverThePixelLimitAreRefusedBeforeDecoding) {
   config::ServiceConfig config;
   config.max_image_pixels = 640 * 480 - 1;
