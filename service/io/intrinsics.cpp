@@ -70,28 +70,28 @@ core::Result<core::Camera> MakeCamera(double fx, double fy, double cx, double cy
   return core::Camera{fx, fy, cx, cy, width.value(), height.value()};
 }
 
-core::Result<core::Camera> ParseIntr(const json& doc) {
-  const auto fx = ReadPositive(doc, "_fx");
-  if (!fx) return fx.error();
-  const auto fy = ReadPositive(doc, "_fy");
-  if (!fy) return fy.error();
-  const auto cx = ReadNumber(doc, "_cx");
-  if (!cx) return cx.error();
-  const auto cy = ReadNumber(doc, "_cy");
-  if (!cy) return cy.error();
-  return MakeCamera(fx.value(), fy.value(), cx.value(), cy.value(), doc, "_width", "_height");
-}
+/// The key names of a layout that lists the pinhole parameters one by one.
+struct PinholeKeys {
+  const char* fx;
+  const char* fy;
+  const char* cx;
+  const char* cy;
+  const char* width;
+  const char* height;
+};
+constexpr PinholeKeys kIntrKeys{"_fx", "_fy", "_cx", "_cy", "_width", "_height"};
+constexpr PinholeKeys kRealsenseKeys{"fx", "fy", "ppx", "ppy", "width", "height"};
 
-core::Result<core::Camera> ParseRealsense(const json& doc) {
-  const auto fx = ReadPositive(doc, "fx");
+core::Result<core::Camera> ParsePinhole(const json& doc, const PinholeKeys& keys) {
+  const auto fx = ReadPositive(doc, keys.fx);
   if (!fx) return fx.error();
-  const auto fy = ReadPositive(doc, "fy");
+  const auto fy = ReadPositive(doc, keys.fy);
   if (!fy) return fy.error();
-  const auto cx = ReadNumber(doc, "ppx");
+  const auto cx = ReadNumber(doc, keys.cx);
   if (!cx) return cx.error();
-  const auto cy = ReadNumber(doc, "ppy");
+  const auto cy = ReadNumber(doc, keys.cy);
   if (!cy) return cy.error();
-  return MakeCamera(fx.value(), fy.value(), cx.value(), cy.value(), doc, "width", "height");
+  return MakeCamera(fx.value(), fy.value(), cx.value(), cy.value(), doc, keys.width, keys.height);
 }
 
 /// A 3 x 3 camera matrix as 9 numbers (or 3 rows of 3), row-major (ROS) or column-major
@@ -140,8 +140,9 @@ core::Result<core::Camera> ParseIntrinsicsJson(std::string_view text) {
     return IntrinsicsError(std::string("intrinsics must be a JSON object: ") + kLayouts,
                            "intrinsics");
   }
-  for (const char* key : {"_fx", "_fy", "_cx", "_cy", "_width", "_height"}) {
-    if (doc.contains(key)) return ParseIntr(doc);
+  const auto& k = kIntrKeys;
+  for (const char* key : {k.fx, k.fy, k.cx, k.cy, k.width, k.height}) {
+    if (doc.contains(key)) return ParsePinhole(doc, kIntrKeys);
   }
   for (const char* key : {"K", "k"}) {
     if (doc.contains(key)) return ParseMatrix(doc, key, /*column_major=*/false);
@@ -149,7 +150,7 @@ core::Result<core::Camera> ParseIntrinsicsJson(std::string_view text) {
   if (doc.contains("intrinsic_matrix")) {
     return ParseMatrix(doc, "intrinsic_matrix", /*column_major=*/true);
   }
-  if (doc.contains("ppx")) return ParseRealsense(doc);
+  if (doc.contains("ppx")) return ParsePinhole(doc, kRealsenseKeys);
   return IntrinsicsError(std::string("intrinsics in no known layout: ") + kLayouts, "intrinsics");
 }
 
