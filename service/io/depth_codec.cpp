@@ -63,7 +63,7 @@ void MarkMissing(cv::Mat1f& depth) {
 // A depth image whose median reading lies farther than this is in the wrong unit (millimetres
 // read as metres): no scene this service plans for is 100 m from the camera.
 constexpr double kMaxMedianDepthM = 100.0;
-constexpr int kMedianSamples = 100000;  // pixels sampled (evenly strided) for the median
+constexpr int kMedianSamples = 10000;  // pixels sampled (evenly strided) for the median
 
 /// The median of the valid (finite, positive) depths among about kMedianSamples pixels; NaN when
 /// none is valid.

@@ -285,6 +285,11 @@ cv::Mat1f CopyPixels(std::string_view data, int rows, int cols, const Dtype& dty
                      double count_unit_m) {
   cv::Mat1f image(rows, cols);
   const char* p = data.data();
+  const bool native_order = dtype.big_endian == (std::endian::native == std::endian::big);
+  if (dtype.bytes == sizeof(float) && !dtype.unsigned_integer && native_order) {
+    std::memcpy(image.data, p, image.total() * sizeof(float));  // the usual case: as stored
+    return image;
+  }
   for (int r = 0; r < rows; ++r) {
     float* row = image[r];
     for (int c = 0; c < cols; ++c, p += dtype.bytes) row[c] = ReadElement(p, dtype, count_unit_m);
