@@ -54,6 +54,22 @@ TEST_P(PrimesenseSingleObject, BestGraspIsOnTheObjectAndFingersAreFree) {
   }
 }
 
+// The wrist camera's fingers at 0.544 m reach down to the table: the cut at 0.6 m takes their
+// base, the fill what is joined to it (thousands of pixels more), and none of the object.
+TEST_P(PrimesenseSingleObject, MinimumDepthExcludesTheWholeFingersAndNoneOfTheObject) {
+  const int i = GetParam();
+  const std::string stem = kData + "/primesense/single_";
+  Scene scene = Prepare(stem + "depth_" + std::to_string(i) + ".npy", Primesense());
+  const cv::Mat1b mask =
+      cv::imread(stem + "segmask_" + std::to_string(i) + ".png", cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(mask.size(), scene.height_m.size());
+  RestrictContact(scene, {}, 0.6);
+  const int excluded = cv::countNonZero(scene.contact_allowed == 0);
+  const int nearer = cv::countNonZero(scene.depth_filled_m < 0.6f);
+  EXPECT_GT(excluded, nearer + 5000) << "the fingers' deeper parts are excluded too";
+  EXPECT_EQ(cv::countNonZero((scene.contact_allowed == 0) & (mask > 0)), 0);
+}
+
 INSTANTIATE_TEST_SUITE_P(Frames, PrimesenseSingleObject, ::testing::Values(0, 1, 2));
 
 TEST(PhoxiClutter, FindsAGraspDespiteMissingPixels) {
