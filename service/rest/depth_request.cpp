@@ -31,6 +31,14 @@ bool IsRawDepthContentType(std::string_view type) {
   return false;
 }
 
+// A body sent without a Content-Type (Python's requests.post(url, data=file)) or with curl's
+// default form type (curl --data-binary @d.npy) that starts like a depth file is the raw depth:
+// neither type could mean anything else for these bytes.
+bool LooksLikeUntypedDepth(std::string_view type, std::string_view body) {
+  const bool untyped = type.empty() || type.substr(0, 33) == "application/x-www-form-urlencoded";
+  return untyped && !body.empty() && io::SniffDepthFormat(body).ok();
+}
+
 core::Result<RequestFields> CollectFields(const http::Request& request) {
   RequestFields fields;
   for (const auto& [key, value] : request.query) fields.values[key] = value;
@@ -52,7 +60,8 @@ core::Result<RequestFields> CollectFields(const http::Request& request) {
         fields.values[part.name] = std::move(part.data);
       }
     }
-  } else if (IsRawDepthContentType(content_type)) {
+  } else if (IsRawDepthContentType(content_type) ||
+             LooksLikeUntypedDepth(content_type, request.body)) {
     fields.depth_bytes = request.body;
   } else if (!request.body.empty() || !content_type.empty()) {
     return MakeError(ErrorCode::kUnsupportedMediaType,

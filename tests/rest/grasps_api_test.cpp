@@ -183,6 +183,25 @@ TEST_F(GraspsApiTest, Float64NpyGivesTheSameGraspsAndMillimetresAreRefused) {
       << body.dump();
 }
 
+// Clients that forget the Content-Type: Python's requests.post(url, data=file) sends none, curl
+// --data-binary sends application/x-www-form-urlencoded. A body that starts like a depth file
+// is read as one; other bodies of those types are still a 415 naming Content-Type.
+TEST_F(GraspsApiTest, UntypedDepthBodiesAreReadByTheirMagicBytes) {
+  const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
+  const auto typed = server_->Send(RawRequest("POST", "/v1/grasps", "application/x-npy", npy));
+  ASSERT_EQ(typed.status, 200) << typed.body;
+  for (const std::string type : {"", "application/x-www-form-urlencoded"}) {
+    SCOPED_TRACE(type);
+    const auto reply = server_->Send(RawRequest("POST", "/v1/grasps", type, npy));
+    ASSERT_EQ(reply.status, 200) << reply.body;
+    EXPECT_EQ(json::parse(reply.body)["grasps"], json::parse(typed.body)["grasps"]);
+  }
+  ExpectError(server_->Send(
+                  RawRequest("POST", "/v1/grasps", "application/x-www-form-urlencoded", "top_k=3")),
+              415, "Content-Type");
+  ExpectError(server_->Send(RawRequest("POST", "/v1/grasps", "", "hello")), 415, "Content-Type");
+}
+
 TEST_F(GraspsApiTest, OverlayPngHasTheImageSize) {
   for (const std::string& how : {std::string("query"), std::string("accept")}) {
     const std::string target = how == "query" ? "/v1/grasps?format=png" : "/v1/grasps";
