@@ -17,6 +17,12 @@ core::Error DepthError(core::ErrorCode code, std::string message) {
   return core::MakeError(code, std::move(message), "depth");
 }
 
+std::optional<core::Error> CheckCountUnit(double png_unit_m) {
+  if (std::isfinite(png_unit_m) && png_unit_m > 0) return std::nullopt;
+  return core::MakeError(core::ErrorCode::kInvalidArgument,
+                         "png_unit_m must be a positive number of metres per count", "png_unit_m");
+}
+
 std::optional<core::Error> CheckImageSize(std::int64_t height, std::int64_t width,
                                           std::int64_t max_pixels, std::string_view what) {
   const std::string size = std::to_string(width) + "x" + std::to_string(height);

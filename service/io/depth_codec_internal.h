@@ -21,6 +21,10 @@ core::Error DepthError(core::ErrorCode code, std::string message);
 std::optional<core::Error> CheckImageSize(std::int64_t height, std::int64_t width,
                                           std::int64_t max_pixels, std::string_view what);
 
+/// Refuses a png_unit_m that is not a positive finite number of metres per count (16-bit PNG and
+/// uint16 NPY counts), field = "png_unit_m".
+std::optional<core::Error> CheckCountUnit(double png_unit_m);
+
 /// `text` cut to `max_chars` with non-printable bytes replaced, safe to quote in a JSON message.
 std::string Printable(std::string_view text, std::size_t max_chars = 24);
 

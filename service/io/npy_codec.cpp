@@ -253,14 +253,12 @@ core::Result<cv::Size> CheckShape(const std::vector<std::int64_t>& shape, std::i
   return cv::Size(static_cast<int>(shape[1]), static_cast<int>(shape[0]));
 }
 
-/// The element at `p` (dtype.bytes bytes in dtype's byte order) as a float; counts times
+/// The element at `p` (dtype.bytes bytes, reversed first when `swap`) as a float; counts times
 /// `count_unit_m`.
-float ReadElement(const char* p, const Dtype& dtype, double count_unit_m) {
+float ReadElement(const char* p, const Dtype& dtype, bool swap, double count_unit_m) {
   unsigned char raw[8];
   std::memcpy(raw, p, dtype.bytes);
-  if (dtype.big_endian != (std::endian::native == std::endian::big)) {
-    std::reverse(raw, raw + dtype.bytes);
-  }
+  if (swap) std::reverse(raw, raw + dtype.bytes);
   switch (dtype.bytes) {
     case 2: {
       std::uint16_t count;
@@ -285,14 +283,15 @@ cv::Mat1f CopyPixels(std::string_view data, int rows, int cols, const Dtype& dty
                      double count_unit_m) {
   cv::Mat1f image(rows, cols);
   const char* p = data.data();
-  const bool native_order = dtype.big_endian == (std::endian::native == std::endian::big);
-  if (dtype.bytes == sizeof(float) && !dtype.unsigned_integer && native_order) {
+  const bool swap = dtype.big_endian != (std::endian::native == std::endian::big);
+  if (dtype.bytes == sizeof(float) && !dtype.unsigned_integer && !swap) {
     std::memcpy(image.data, p, image.total() * sizeof(float));  // the usual case: as stored
     return image;
   }
   for (int r = 0; r < rows; ++r) {
     float* row = image[r];
-    for (int c = 0; c < cols; ++c, p += dtype.bytes) row[c] = ReadElement(p, dtype, count_unit_m);
+    for (int c = 0; c < cols; ++c, p += dtype.bytes)
+      row[c] = ReadElement(p, dtype, swap, count_unit_m);
   }
   return image;
 }
@@ -311,11 +310,8 @@ core::Result<cv::Mat1f> DecodeNpy(std::string_view bytes, const DepthDecodeOptio
   const NpyHeader& header = layout.value().header;
   const auto dtype = CheckDtype(header.descr);
   if (!dtype) return dtype.error();
-  if (dtype.value().unsigned_integer &&
-      !(std::isfinite(options.png_unit_m) && options.png_unit_m > 0)) {
-    return core::MakeError(ErrorCode::kInvalidArgument,
-                           "png_unit_m must be a positive number of metres per count",
-                           "png_unit_m");
+  if (dtype.value().unsigned_integer) {
+    if (auto error = detail::CheckCountUnit(options.png_unit_m)) return *error;
   }
   const auto size = CheckShape(header.shape, options.max_pixels);
   if (!size) return size.error();

@@ -250,11 +250,7 @@ core::Result<cv::Mat1b> DecodeMask(std::string_view bytes, std::int64_t max_pixe
 namespace detail {
 
 core::Result<cv::Mat1f> DecodePng16(std::string_view bytes, const DepthDecodeOptions& options) {
-  if (!(std::isfinite(options.png_unit_m) && options.png_unit_m > 0)) {
-    return core::MakeError(ErrorCode::kInvalidArgument,
-                           "png_unit_m must be a positive number of metres per PNG count",
-                           "png_unit_m");
-  }
+  if (auto error = CheckCountUnit(options.png_unit_m)) return *error;
   const auto header = ReadIhdr(bytes);
   if (!header) return header.error();
   if (auto error = CheckHeader(header.value(), options.max_pixels)) return *error;

@@ -35,7 +35,8 @@ bool IsRawDepthContentType(std::string_view type) {
 // default form type (curl --data-binary @d.npy) that starts like a depth file is the raw depth:
 // neither type could mean anything else for these bytes.
 bool LooksLikeUntypedDepth(std::string_view type, std::string_view body) {
-  const bool untyped = type.empty() || type.substr(0, 33) == "application/x-www-form-urlencoded";
+  constexpr std::string_view kFormType = "application/x-www-form-urlencoded";
+  const bool untyped = type.empty() || type.substr(0, kFormType.size()) == kFormType;
   return untyped && !body.empty() && io::SniffDepthFormat(body).ok();
 }
 
