@@ -16,7 +16,10 @@ static_assert(std::endian::native == std::endian::little,
               "shards are little-endian and written by memcpy of native values");
 
 constexpr char kShardMagic[8] = {'S', 'G', 'G', 'Q', 'S', 'H', 'R', 'D'};
-constexpr std::uint32_t kShardVersion = 1;
+/// 2 adds the gripper clearances (clearance.h) at the end of each record; version 1 shards are
+/// still read, with clearances NaN (not measured).
+constexpr std::uint32_t kShardVersion = 2;
+constexpr std::uint32_t kShardVersionWithoutClearance = 1;
 constexpr std::size_t kHeaderBytes = sizeof(kShardMagic) + 4 * sizeof(std::uint32_t);
 constexpr std::size_t kCrcBytes = sizeof(std::uint32_t);
 constexpr const char* kIndexFormat = "softgrasp-gqcnn-dataset";
@@ -70,10 +73,13 @@ bool SafeRelativePath(const std::string& file) {
 
 }  // namespace
 
-std::size_t RecordBytes() {
+std::size_t RecordBytes(std::uint32_t version) {
+  const std::size_t clearances = version == kShardVersionWithoutClearance ? 0 : 2;
   return sizeof(float) * (kCropPixels + 1 + 7 + 2) + 4 /* flags, padding */ +
-         4 * sizeof(std::uint32_t);
+         4 * sizeof(std::uint32_t) + sizeof(float) * clearances;
 }
+
+std::size_t RecordBytes() { return RecordBytes(kShardVersion); }
 
 std::string EncodeShard(const std::vector<GraspDatapoint>& datapoints) {
   std::string out;
@@ -96,6 +102,8 @@ std::string EncodeShard(const std::vector<GraspDatapoint>& datapoints) {
     Put(out, d.pose_index);
     Put(out, d.image_index);
     Put(out, d.grasp_index);
+    Put(out, d.jaw_clearance_m);
+    Put(out, d.palm_clearance_m);
   }
   Put<std::uint32_t>(out, Crc32(out));
   return out;
@@ -114,19 +122,21 @@ core::Result<std::vector<GraspDatapoint>> DecodeShard(std::string_view bytes) {
   const auto crop_px = Take<std::uint32_t>(bytes, offset);
   const auto count = Take<std::uint32_t>(bytes, offset);
   offset += sizeof(std::uint32_t);  // reserved
-  if (version != kShardVersion) {
+  if (version != kShardVersion && version != kShardVersionWithoutClearance) {
     return ShardError("shard version " + std::to_string(version) + " is not supported (expected " +
+                      std::to_string(kShardVersionWithoutClearance) + " or " +
                       std::to_string(kShardVersion) + ")");
   }
+  const std::size_t record_bytes = RecordBytes(version);
   if (crop_px != static_cast<std::uint32_t>(kCropSizePx)) {
     return ShardError("shard crops are " + std::to_string(crop_px) + " px; this build reads " +
                       std::to_string(kCropSizePx) + " px");
   }
   const std::size_t records = bytes.size() - kHeaderBytes - kCrcBytes;
-  if (records % RecordBytes() != 0 || records / RecordBytes() != count) {
+  if (records % record_bytes != 0 || records / record_bytes != count) {
     return ShardError("shard says " + std::to_string(count) + " records but holds " +
                       std::to_string(records) + " bytes of records (" +
-                      std::to_string(RecordBytes()) + " each): cut short?");
+                      std::to_string(record_bytes) + " each): cut short?");
   }
   std::size_t crc_offset = bytes.size() - kCrcBytes;
   const auto stored_crc = Take<std::uint32_t>(bytes, crc_offset);
@@ -168,6 +178,12 @@ core::Result<std::vector<GraspDatapoint>> DecodeShard(std::string_view bytes) {
     d.pose_index = Take<std::uint32_t>(bytes, offset);
     d.image_index = Take<std::uint32_t>(bytes, offset);
     d.grasp_index = Take<std::uint32_t>(bytes, offset);
+    if (version == kShardVersionWithoutClearance) continue;
+    d.jaw_clearance_m = Take<float>(bytes, offset);
+    d.palm_clearance_m = Take<float>(bytes, offset);
+    if (!std::isfinite(d.jaw_clearance_m) || !std::isfinite(d.palm_clearance_m)) {
+      return ShardError(where + "clearances must be finite");
+    }
   }
   return out;
 }

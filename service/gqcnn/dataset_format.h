@@ -11,6 +11,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -46,15 +47,20 @@ struct GraspDatapoint {
   std::uint32_t pose_index = 0;       ///< the object's stable pose, most probable first
   std::uint32_t image_index = 0;      ///< dataset-wide rendered-image number
   std::uint32_t grasp_index = 0;      ///< the grasp's rank in the object's analysis
+  /// gqcnn::MeasureClearance of the grasp in the rendered image (clearance.h), metres; NaN in
+  /// datasets written before it was stored (shard version 1).
+  float jaw_clearance_m = std::numeric_limits<float>::quiet_NaN();
+  float palm_clearance_m = std::numeric_limits<float>::quiet_NaN();
 };
 
-/// Bytes of one record in a shard file.
+/// Bytes of one record in a shard file of the version this build writes.
 std::size_t RecordBytes();
 
 /// A shard as bytes: header, records, CRC-32.
 std::string EncodeShard(const std::vector<GraspDatapoint>& datapoints);
 
-/// Errors (kInvalidArgument, field "shard"): wrong magic or version, a crop size other than
+/// Reads the current version and version 1 (no clearances: NaN). Errors (kInvalidArgument,
+/// field "shard"): wrong magic or version, a crop size other than
 /// kCropSizePx, a length that does not match the count, a CRC mismatch (a shard cut short),
 /// non-finite or negative depths, flags other than 0/1. Never throws on any input.
 core::Result<std::vector<GraspDatapoint>> DecodeShard(std::string_view bytes);

@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "service/gqcnn/clearance.h"
 #include "service/gqcnn/dataset_format.h"
 
 namespace softgrasp::gqcnn {
@@ -205,11 +206,11 @@ class Planner {
     return SampleDepth(out) && Reachable(out);
   }
 
-  // Whether the gripper can take the candidate: its open jaws reach the grasp depth, and there
+  // Whether the gripper can take the candidate: it reaches the grasp depth, and there
   // its fingers meet faces that hold, in the image plane (CheckContacts, which sets the
   // candidate's contacts) and in height (ContactFacesSteep).
   bool Reachable(Candidate* c) const {
-    if (!JawsClear(c->pose)) return false;
+    if (!GripperClears(c->pose)) return false;
     if (!params_.check_contacts) return true;
     const double px_per_m = camera_.fx / c->pose.depth_m;
     const core::GripperPx fingers{gripper_.opening_stroke_m * px_per_m,
@@ -225,30 +226,14 @@ class Planner {
                                    gripper_.friction_coefficient);
   }
 
-  // Whether the open jaws reach the grasp depth: every surface under the two finger boxes (at
-  // full opening, finger thickness along the closing axis beyond half the stroke, finger width
-  // across; pixels at the grasp depth) lies deeper than the fingertips.
-  bool JawsClear(const GraspImagePose& pose) const {
-    if (!params_.check_jaw_clearance) return true;
-    const double px_per_m = camera_.fx / pose.depth_m;
-    const double inner_px = 0.5 * gripper_.opening_stroke_m * px_per_m;
-    const double outer_px = inner_px + gripper_.finger_thickness_m * px_per_m;
-    const double half_width_px = 0.5 * gripper_.finger_width_m * px_per_m;
-    const double ax = std::cos(pose.angle_rad), ay = std::sin(pose.angle_rad);
-    const int along = std::max(1, static_cast<int>(std::ceil(outer_px - inner_px)));
-    const int across = std::max(1, static_cast<int>(std::ceil(2.0 * half_width_px)));
-    for (const double side : {-1.0, 1.0}) {
-      for (int i = 0; i <= along; ++i) {
-        const double a = side * (inner_px + (outer_px - inner_px) * i / along);
-        for (int j = 0; j <= across; ++j) {
-          const double b = -half_width_px + 2.0 * half_width_px * j / across;
-          const int u = static_cast<int>(std::lround(pose.center_u_px + a * ax - b * ay));
-          const int v = static_cast<int>(std::lround(pose.center_v_px + a * ay + b * ax));
-          if (Depth(u, v) < pose.depth_m) return false;
-        }
-      }
-    }
-    return true;
+  // Whether the gripper reaches the grasp depth: the clearance check the dataset's records
+  // carry (clearance.h), on the inpainted depth and the fitted floor's heights.
+  bool GripperClears(const GraspImagePose& pose) const {
+    if (!params_.check_clearance) return true;
+    const ClearanceRule rule;
+    return rule.Admits(MeasureClearance(scene_.depth_filled_m, scene_.height_m, pose, camera_.fx,
+                                        gripper_, rule.min_height_m),
+                       gripper_);
   }
 
   // Draws the grasp depth below the surface, kept above the floor.

@@ -53,11 +53,13 @@ struct PolicyParams {
   /// crop 96 * fx / training_fx_px pixels so the crop spans the same angle.
   double training_fx_px = 525.0;
   int source_crop_px = 96;
-  /// Candidates whose open jaws would not reach the grasp depth are dropped before scoring:
-  /// some surface under a finger (at full opening, in pixels at the grasp depth) is nearer than
-  /// the fingertips, i.e. the object is wider than the stroke there or a neighbour is in the
-  /// way. Dex-Net 2.0 leaves this to the network; ours learnt it too weakly (docs/gqcnn.md).
-  bool check_jaw_clearance = true;
+  /// Candidates the gripper would not reach are dropped before scoring: gqcnn::ClearanceRule
+  /// on gqcnn::MeasureClearance (clearance.h; a surface above the floor under a finger is nearer
+  /// than the fingertips, or under the palm nearer than its face: the object is wider than the
+  /// stroke there or a neighbour is in the way). The dataset's records carry the same check, so
+  /// a network can be trained on the grasps it admits (`--admitted-only`). Dex-Net 2.0 leaves
+  /// this to the network; ours learns it too weakly (docs/gqcnn.md).
+  bool check_clearance = true;
   /// Candidates whose fingers, closing at the grasp depth, would not meet faces that hold are
   /// dropped: core::CheckContacts (FGE's contact check: a patch of at least 5 mm on each
   /// finger) and core::ContactFacesSteep (the faces at the fingertips steep enough for the

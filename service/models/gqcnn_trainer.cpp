@@ -9,6 +9,7 @@
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 
+#include "service/gqcnn/clearance.h"
 #include "service/models/loss_plot.h"
 #include "service/models/network.h"
 #include "service/models/seed_mix.h"
@@ -87,7 +88,8 @@ json RunFingerprint(const GqcnnTrainOptions& o, const GqcnnNormalisation& n,
           {"network", GqcnnConfigJson(o.network)},
           {"augmentation", AugmentationJson(o.augmentation)},
           {"normalisation", {n.im_mean_m, n.im_std_m, n.pose_mean_m, n.pose_std_m}},
-          {"train_records", train_records}};
+          {"train_records", train_records},
+          {"admitted_only", o.admitted_only}};
 }
 
 torch::Tensor JsonTensor(const json& j) {
@@ -415,6 +417,13 @@ core::Result<GqcnnSet> LoadGqcnnSet(const std::vector<std::filesystem::path>& di
         set.labels.push_back(r.label ? 1 : 0);
         set.collision_free.push_back(r.collision_free ? 1 : 0);
         set.quality_labels.push_back(r.robust_ferrari_canny > index.metric_threshold ? 1 : 0);
+        const bool measured = std::isfinite(r.jaw_clearance_m) && std::isfinite(r.palm_clearance_m);
+        set.clearances_measured = set.clearances_measured && measured;
+        set.admitted.push_back(!measured ||
+                                       gqcnn::ClearanceRule{}.Admits(
+                                           {r.jaw_clearance_m, r.palm_clearance_m}, core::Gripper{})
+                                   ? 1
+                                   : 0);
         set.positives += r.label ? 1 : 0;
         set.object_keys.push_back(object_base + r.object_index);
         const auto [it, inserted] = image_keys.try_emplace(
@@ -680,7 +689,18 @@ std::filesystem::path GqcnnAccuracyPngPath(const std::filesystem::path& out) {
 core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const GqcnnSet& set,
                                           const GqcnnProgress& progress) {
   if (auto error = CheckOptions(o)) return *error;
-  const GqcnnSplit split = SplitByObject(set, o.validation_fraction, o.seed);
+  GqcnnSplit split = SplitByObject(set, o.validation_fraction, o.seed);
+  if (o.admitted_only) {
+    if (!set.clearances_measured) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "admitted-only training needs datasets with gripper clearances (made by "
+                       "softgrasp-sim gqcnn-dataset since generator version 3)",
+                       "data");
+    }
+    for (auto* records : {&split.train, &split.validation}) {
+      std::erase_if(*records, [&](std::size_t i) { return set.admitted[i] == 0; });
+    }
+  }
   auto count_classes = [&](const std::vector<std::size_t>& records,
                            const char* which) -> std::optional<core::Error> {
     const double rate = PositiveRate(set.labels, records);
@@ -773,6 +793,7 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
          {{"by", "object"},
           {"seed", o.seed},
           {"validation_fraction", o.validation_fraction},
+          {"admitted_only", o.admitted_only},
           {"train_records", split.train.size()},
           {"validation_records", split.validation.size()},
           {"train_positive_rate", train_rate},

@@ -31,6 +31,12 @@ struct GqcnnSet {
   /// quality is above the dataset's metric threshold (label = both).
   std::vector<std::uint8_t> collision_free;
   std::vector<std::uint8_t> quality_labels;
+  /// The gripper clearance stored with the record admits the grasp (gqcnn::ClearanceRule's
+  /// defaults, the dataset's 5 cm gripper): the grasps strategy=gqcnn lets the network score.
+  /// 1 for records of datasets written before clearances were stored.
+  std::vector<std::uint8_t> admitted;
+  /// Every record carries its clearances (false when a dataset predates them).
+  bool clearances_measured = true;
   std::vector<std::uint32_t> object_keys;  ///< into object_names
   std::vector<std::uint32_t> image_keys;   ///< dense, per (dataset, image_index)
   std::vector<std::string> object_names;   ///< "DIR:name"
@@ -122,7 +128,11 @@ struct GqcnnTrainOptions {
   int eval_every = 0;        ///< steps between validations; 0: 20 validations per run
   int checkpoint_every = 0;  ///< steps between checkpoints; 0: at every validation
   bool resume = false;       ///< continue from OUT.ckpt when it exists
-  int stop_after_step = 0;   ///< stop (checkpointing) after this step as if killed; 0 = run on
+  /// Train and validate on the records whose clearance the planner admits (GqcnnSet::admitted)
+  /// only: the network then learns to judge the grasps it will be asked about. Needs datasets
+  /// with clearances.
+  bool admitted_only = false;
+  int stop_after_step = 0;  ///< stop (checkpointing) after this step as if killed; 0 = run on
   GqcnnNetConfig network;
   GqcnnAugmentation augmentation;
 };

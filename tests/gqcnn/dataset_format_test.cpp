@@ -1,6 +1,7 @@
 #include "service/gqcnn/dataset_format.h"
 
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <cmath>
 #include <filesystem>
@@ -25,7 +26,23 @@ GraspDatapoint Sample(std::uint32_t i) {
   d.pose_index = 2;
   d.image_index = 100 + i;
   d.grasp_index = 3 * i;
+  d.jaw_clearance_m = 0.002F * static_cast<float>(i) - 0.001F;
+  d.palm_clearance_m = -0.03F;
   return d;
+}
+
+// `bytes` (a shard of this build) as a version 1 shard: no clearances, CRC recomputed.
+std::string AsVersion1(const std::string& bytes) {
+  const std::size_t header = 8 + 16, record = RecordBytes(), old_record = record - 8;
+  std::string out = bytes.substr(0, header);
+  out[8] = 1;
+  for (std::size_t at = header; at + record <= bytes.size() - 4; at += record) {
+    out += bytes.substr(at, old_record);
+  }
+  const auto crc = static_cast<std::uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(out.data()), static_cast<uInt>(out.size())));
+  out.append(reinterpret_cast<const char*>(&crc), 4);
+  return out;
 }
 
 void ExpectSame(const GraspDatapoint& a, const GraspDatapoint& b) {
@@ -40,6 +57,8 @@ void ExpectSame(const GraspDatapoint& a, const GraspDatapoint& b) {
   EXPECT_EQ(a.pose_index, b.pose_index);
   EXPECT_EQ(a.image_index, b.image_index);
   EXPECT_EQ(a.grasp_index, b.grasp_index);
+  EXPECT_EQ(a.jaw_clearance_m, b.jaw_clearance_m);
+  EXPECT_EQ(a.palm_clearance_m, b.palm_clearance_m);
 }
 
 TEST(GqcnnDatasetFormatTest, ShardRoundTripsBitForBit) {
@@ -81,6 +100,27 @@ TEST(GqcnnDatasetFormatTest, DamagedShardsAreRefusedWithTheReason) {
   GraspDatapoint negative_depth = Sample(0);
   negative_depth.grasp_depth_m = -1.0F;
   refused(EncodeShard({negative_depth}), "grasp depth");
+  GraspDatapoint unmeasured = Sample(0);
+  unmeasured.palm_clearance_m = std::numeric_limits<float>::quiet_NaN();
+  refused(EncodeShard({unmeasured}), "clearances");
+}
+
+// Datasets written before the clearances were stored still load, with clearances NaN.
+TEST(GqcnnDatasetFormatTest, Version1ShardsAreReadWithoutClearances) {
+  const std::vector<GraspDatapoint> in = {Sample(0), Sample(1)};
+  const std::string v1 = AsVersion1(EncodeShard(in));
+  ASSERT_EQ(v1.size(), 8 + 16 + 2 * (RecordBytes() - 8) + 4);
+  const auto out = DecodeShard(v1);
+  ASSERT_TRUE(out.ok()) << out.error().message;
+  ASSERT_EQ(out.value().size(), 2U);
+  for (std::size_t i = 0; i < 2; ++i) {
+    GraspDatapoint read = out.value()[i];
+    EXPECT_TRUE(std::isnan(read.jaw_clearance_m));
+    EXPECT_TRUE(std::isnan(read.palm_clearance_m));
+    read.jaw_clearance_m = in[i].jaw_clearance_m;
+    read.palm_clearance_m = in[i].palm_clearance_m;
+    ExpectSame(in[i], read);  // every other field as written
+  }
 }
 
 TEST(GqcnnDatasetFormatTest, IndexRoundTripsAndCountsTotals) {

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 
+#include "service/gqcnn/clearance.h"
 #include "service/models/gqcnn_model.h"
 #include "tests/models/gqcnn_synthetic.h"
 #include "tests/support/temp_dir.h"
@@ -112,6 +113,42 @@ TEST_F(GqcnnCliTest, TrainsAFewStepsResumesAndEvaluates) {
   EXPECT_TRUE(j.at("baselines").at("logistic_hand_features").contains("metrics"));
   EXPECT_FALSE(j.contains("warning"));
 
+  // As strategy=gqcnn classifies: the records' clearances, counted here from the shards.
+  std::size_t records = 0, admitted = 0, agree = 0, positives = 0, admitted_positives = 0,
+              admitted_negatives = 0;
+  const auto index = gqcnn::ReadIndex(Dir("test"));
+  ASSERT_TRUE(index.ok());
+  for (const auto& shard : index.value().shards) {
+    const auto read = gqcnn::ReadShard(fs::path(Dir("test")) / shard.file);
+    ASSERT_TRUE(read.ok());
+    for (const gqcnn::GraspDatapoint& d : read.value()) {
+      const bool a =
+          gqcnn::ClearanceRule{}.Admits({d.jaw_clearance_m, d.palm_clearance_m}, core::Gripper{});
+      ++records;
+      admitted += a ? 1 : 0;
+      agree += a == d.collision_free ? 1 : 0;
+      positives += d.label ? 1 : 0;
+      admitted_positives += a && d.label ? 1 : 0;
+      admitted_negatives += a && !d.label ? 1 : 0;
+    }
+  }
+  const json& clearance = j.at("clearance");
+  EXPECT_DOUBLE_EQ(clearance.at("admitted_rate").get<double>(),
+                   static_cast<double>(admitted) / static_cast<double>(records));
+  EXPECT_DOUBLE_EQ(clearance.at("agreement_with_collision_labels").get<double>(),
+                   static_cast<double>(agree) / static_cast<double>(records));
+  const double check_recall = static_cast<double>(admitted_positives) / positives;
+  const double check_specificity =
+      1.0 - static_cast<double>(admitted_negatives) / static_cast<double>(records - positives);
+  const json& check = j.at("baselines").at("clearance_check_alone").at("metrics");
+  EXPECT_NEAR(check.at("balanced_accuracy").get<double>(), 0.5 * (check_recall + check_specificity),
+              1e-9);
+  // The gate only turns positives into negatives: recall at most the check's and the net's.
+  const json& gated = j.at("gqcnn_with_clearance");
+  EXPECT_LE(gated.at("recall").get<double>(), check_recall + 1e-12);
+  EXPECT_LE(gated.at("recall").get<double>(), g.at("recall").get<double>() + 1e-12);
+  EXPECT_TRUE(j.at("baselines").at("logistic_with_clearance").contains("metrics"));
+
   // Evaluating on the training data says so.
   const CliRun leak =
       Run("gqcnn-eval --model " + model.string() + " --data " + Dir("train") + " --resamples 20");
@@ -136,16 +173,17 @@ TEST_F(GqcnnCliTest, FactoredTrainingWithoutGainAndPredictionRows) {
                           " --predictions " + rows.string() + " --resamples 20 --threads 1");
   ASSERT_EQ(eval.exit_code, 0) << eval.err;
   const json confusion = json::parse(eval.out).at("gqcnn").at("confusion");
+  const json gated = json::parse(eval.out).at("gqcnn_with_clearance").at("confusion");
   std::istringstream csv(Slurp(rows));
   std::string line;
   std::getline(csv, line);
-  EXPECT_EQ(line, "record,object,image,label,p_gqcnn,p_logistic");
-  int n = 0, positives = 0, predicted = 0;
+  EXPECT_EQ(line, "record,object,image,label,p_gqcnn,p_logistic,admitted");
+  int n = 0, positives = 0, predicted = 0, predicted_and_admitted = 0;
   while (std::getline(csv, line)) {
     std::vector<std::string> cells;
     std::istringstream row(line);
     for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
-    ASSERT_EQ(cells.size(), 6u) << line;
+    ASSERT_EQ(cells.size(), 7u) << line;
     EXPECT_EQ(std::stoi(cells[0]), n);
     EXPECT_EQ(cells[1].rfind("test:bar-", 0), 0u) << line;
     positives += cells[3] == "1";
@@ -153,9 +191,12 @@ TEST_F(GqcnnCliTest, FactoredTrainingWithoutGainAndPredictionRows) {
     EXPECT_GE(p, 0.0);
     EXPECT_LE(p, 1.0);
     predicted += p >= 0.5;
+    ASSERT_TRUE(cells[6] == "0" || cells[6] == "1") << line;
+    predicted_and_admitted += p >= 0.5 && cells[6] == "1";
     ++n;
   }
   EXPECT_EQ(n, 8 * 10 * 4);
+  EXPECT_EQ(predicted_and_admitted, gated.at("tp").get<int>() + gated.at("fp").get<int>());
   EXPECT_EQ(positives, confusion.at("tp").get<int>() + confusion.at("fn").get<int>());
   EXPECT_EQ(predicted, confusion.at("tp").get<int>() + confusion.at("fp").get<int>());
 }

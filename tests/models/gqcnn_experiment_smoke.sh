@@ -39,10 +39,10 @@ jq -s -e 'all(.[]; (.outcome | type == "string") and (.reason | type == "string"
   "$work/out/picks.jsonl" >/dev/null || fail "picks.jsonl: a record without outcome or reason"
 # The same network without each of the policy's checks, beside it on the same scene.
 "$SOFTGRASP_TRAIN" gqcnn-picks --model "$work/out/models/fractal-030.pt" --clutter-scenes 1 \
-  --also-without-contact-check --also-without-jaw-check --out "$work/checks.json" \
+  --also-without-contact-check --also-without-clearance-check --out "$work/checks.json" \
   --records "$work/checks.jsonl" 2>/dev/null
 jq -e '[.sets[0].planners[].planner] == ["fge", "gqcnn:fractal-030",
-  "gqcnn:fractal-030:no-contact-check", "gqcnn:fractal-030:no-jaw-check"]' "$work/checks.json" \
+  "gqcnn:fractal-030:no-contact-check", "gqcnn:fractal-030:no-clearance-check"]' "$work/checks.json" \
   >/dev/null || fail "gqcnn-picks: not the planners without each check"
 [ "$(wc -l < "$work/checks.jsonl")" = 4 ] || fail "checks.jsonl: not 4 records"
 

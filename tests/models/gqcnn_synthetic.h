@@ -8,7 +8,8 @@
 /// it): the label needs the pose input read against the image, as in Dex-Net. The two causes are
 /// the label's two factors: a bar wider than the jaws is a collision (collision_free false), jaws
 /// closing above its top a poor quality (robust Ferrari-Canny 0, else 0.004, against the index's
-/// default threshold 0.002).
+/// default threshold 0.002). The gripper clearances are the bar's: its top is under the palm,
+/// and under the jaws too when it is wider than they open.
 
 #include <gtest/gtest.h>
 
@@ -56,6 +57,8 @@ inline gqcnn::GraspDatapoint SyntheticDatapoint(double table_m, double height_m,
   d.collision_free = width_px < kJawOpeningPx;
   d.robust_ferrari_canny = grasp_below_top_m > 0.003 ? 0.004F : 0.0F;
   d.label = d.collision_free && d.robust_ferrari_canny > gqcnn::kDexNetMetricThreshold;
+  d.palm_clearance_m = static_cast<float>(-grasp_below_top_m);
+  d.jaw_clearance_m = d.collision_free ? 1.0F : d.palm_clearance_m;
   return d;
 }
 

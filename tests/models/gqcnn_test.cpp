@@ -566,6 +566,50 @@ TEST_F(GqcnnTrainingTest, ResumedRunEqualsAnUninterruptedOne) {
   EXPECT_EQ(refused.error().code, core::ErrorCode::kUnprocessable);
 }
 
+// The synthetic bars' clearances admit every collision-free grasp and, of the others, those
+// whose fingertips stay 3 mm above a bar too wide for the jaws; admitted-only training sees
+// just those, and needs clearances.
+TEST_F(GqcnnTrainingTest, AdmittedOnlyTrainsOnTheGraspsTheClearanceCheckAdmits) {
+  SetTorchThreads(1);
+  const GqcnnSet set = Set();
+  ASSERT_TRUE(set.clearances_measured);
+  ASSERT_EQ(set.admitted.size(), set.size());
+  std::size_t admitted = 0, admitted_collisions = 0;
+  for (std::size_t i = 0; i < set.size(); ++i) {
+    if (set.collision_free[i]) {
+      EXPECT_EQ(set.admitted[i], 1) << i;
+    }
+    admitted += set.admitted[i];
+    admitted_collisions += set.admitted[i] && !set.collision_free[i] ? 1 : 0;
+  }
+  EXPECT_GT(admitted_collisions, 0u);
+  EXPECT_LT(admitted, set.size());
+
+  GqcnnTrainOptions o = SmallRun(root_->path() / "admitted" / "m.pt");
+  o.steps = 20;
+  o.eval_every = 10;
+  o.admitted_only = true;
+  auto report = TrainGqcnn(o, set);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  const GqcnnSplit split = SplitByObject(set, o.validation_fraction, o.seed);
+  std::size_t train_admitted = 0, validation_admitted = 0;
+  for (const std::size_t i : split.train) train_admitted += set.admitted[i];
+  for (const std::size_t i : split.validation) validation_admitted += set.admitted[i];
+  std::ifstream in(GqcnnCardPath(o.out));
+  const json card = json::parse(in);
+  EXPECT_EQ(card["split"]["admitted_only"], true);
+  EXPECT_EQ(card["split"]["train_records"], train_admitted);
+  EXPECT_EQ(card["split"]["validation_records"], validation_admitted);
+  EXPECT_LT(train_admitted, split.train.size());
+
+  GqcnnSet old = set;
+  old.clearances_measured = false;
+  o.out = root_->path() / "admitted" / "old.pt";
+  auto refused = TrainGqcnn(o, old);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("clearances"), std::string::npos);
+}
+
 TEST_F(GqcnnTrainingTest, RefusesBadOptionsAndOneClassSplits) {
   const GqcnnSet set = Set();
   GqcnnTrainOptions o = SmallRun(root_->path() / "bad" / "m.pt");

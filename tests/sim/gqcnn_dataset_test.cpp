@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -18,6 +19,7 @@
 #include <string>
 
 #include "service/cli/files.h"
+#include "service/gqcnn/clearance.h"
 #include "service/mesh/mesh_check.h"
 #include "service/mesh/mesh_io.h"
 #include "sim/gqcnn/primitives.h"
@@ -130,6 +132,13 @@ TEST(GqcnnDatasetTest, CubeDatapointsCarryTheAnalysisValuesAndFaceGraspsAreFree)
         // docs/gqcnn-dataset.md "Positive rates"), so the label follows the rule checked above.
         EXPECT_GT(d.ferrari_canny, gqcnn::kDexNetMetricThreshold) << d.grasp_index;
         EXPECT_GT(d.robust_ferrari_canny, 0.0F) << d.grasp_index;
+        // Its fingers come down beside the cube onto the table, which does not count; the
+        // palm's footprint holds the top face, (0.04 - height) nearer than the grasp centre
+        // (the camera's tilt of up to 5 degrees brings one end up to 3 mm nearer).
+        EXPECT_EQ(d.jaw_clearance_m, static_cast<float>(gqcnn::kNothingUnderGripperM));
+        EXPECT_NEAR(d.palm_clearance_m, -(0.04 - height_m), 0.004) << d.grasp_index;
+        EXPECT_TRUE(gqcnn::ClearanceRule{}.Admits({d.jaw_clearance_m, d.palm_clearance_m},
+                                                  core::Gripper{}));
         ++face_grasps;
       }
     }
@@ -209,6 +218,16 @@ TEST(GqcnnDatasetTest, SameSeedSameBytesAndADamagedOrDeletedShardIsRegeneratedAl
       if (centre > 0.0F && centre < d.grasp_depth_m + 0.001F) ++in_front;
     }
     EXPECT_GE(static_cast<double>(in_front), 0.95 * static_cast<double>(shard0.value().size()));
+    // The clearance check read from the image mostly agrees with the mesh's collision label.
+    std::size_t agree = 0;
+    for (const auto& d : shard0.value()) {
+      const bool admitted =
+          gqcnn::ClearanceRule{}.Admits({d.jaw_clearance_m, d.palm_clearance_m}, core::Gripper{});
+      if (admitted == d.collision_free) ++agree;
+    }
+    std::printf("clearance check agrees with %zu of %zu collision labels\n", agree,
+                shard0.value().size());
+    EXPECT_GE(static_cast<double>(agree), 0.85 * static_cast<double>(shard0.value().size()));
   }
   // Records are numbered dataset-wide and point into the index.
   auto shard1 = gqcnn::ReadShard(dir / "a" / files[3]);

@@ -13,6 +13,7 @@
 
 #include "service/cli/args.h"
 #include "service/cli/files.h"
+#include "service/gqcnn/clearance.h"
 #include "service/models/gqcnn_model.h"
 #include "service/models/gqcnn_network.h"
 #include "service/models/gqcnn_trainer.h"
@@ -31,16 +32,21 @@ const char* const kGqcnnUsage =
     "                             [--seed S] [--resume] [--eval-every N] [--checkpoint-every N]\n"
     "                             [--validation-fraction F] [--conv1-channels C]\n"
     "                             [--conv2-channels C] [--fc-units U] [--no-augmentation]\n"
-    "                             [--no-gain] [--factored] [--threads T]\n"
+    "                             [--no-gain] [--factored] [--admitted-only] [--threads T]\n"
     "  Trains the GQ-CNN on softgrasp-sim gqcnn-dataset directories (object-wise 80/20 split,\n"
     "  Dex-Net 2.0 augmentations). Writes MODEL.pt (best validation balanced accuracy), its card\n"
     "  MODEL.json, MODEL.ckpt (resumable), MODEL_loss.csv/.png and MODEL_accuracy.png.\n"
+    "  --admitted-only trains and validates on the grasps whose stored gripper clearance the\n"
+    "  planner admits (the ones strategy=gqcnn lets the network score).\n"
     "       softgrasp-train gqcnn-eval --model MODEL.pt --data DIR [--data DIR2 ...]\n"
     "                                  [--json OUT] [--threshold P] [--resamples N] [--threads T]\n"
     "                                  [--predictions OUT.csv]\n"
     "  Accuracy, balanced accuracy, precision, recall and precision of the top-ranked grasp per\n"
     "  image, with 95 % intervals resampling objects, for the model and two baselines (majority\n"
     "  class; logistic regression on two hand features fitted on the model's training split).\n"
+    "  On datasets with gripper clearances, also as strategy=gqcnn classifies: a grasp is\n"
+    "  positive when the clearance check admits it and P >= threshold (gqcnn_with_clearance),\n"
+    "  against the check alone.\n"
     "  --predictions writes one row per grasp (record, object, image, label, both probabilities)\n"
     "  in the order the records are read (shard by shard).\n"
     "       softgrasp-train gqcnn-bench [--model MODEL.pt] [--conv1-channels C]\n"
@@ -119,6 +125,7 @@ int RunGqcnnTrain(std::vector<std::string> argv) {
     o.augmentation.symmetries = false;
   }
   if (args.Flag("--no-gain")) o.augmentation.multiplicative = false;
+  o.admitted_only = args.Flag("--admitted-only");
   args.Int("--threads", 1, 256, &threads);
   o.resume = args.Flag("--resume");
   if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
@@ -213,11 +220,12 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
     majority[i] = static_cast<float>(baseline.value().train_positive_rate);
   }
   if (!predictions_out.empty()) {
-    std::string csv = "record,object,image,label,p_gqcnn,p_logistic\n";
+    std::string csv = "record,object,image,label,p_gqcnn,p_logistic,admitted\n";
     for (std::size_t i = 0; i < s.size(); ++i) {
       csv += std::to_string(i) + "," + s.object_names[s.object_keys[i]] + "," +
              std::to_string(s.image_keys[i]) + "," + std::to_string(int{s.labels[i]}) + "," +
-             std::to_string(p[i]) + "," + std::to_string(logistic[i]) + "\n";
+             std::to_string(p[i]) + "," + std::to_string(logistic[i]) + "," +
+             (s.clearances_measured ? std::to_string(int{s.admitted[i]}) : "") + "\n";
     }
     if (auto error = cli::WriteFile(predictions_out, csv, cli::Parents::kCreate)) {
       return FailError(*error);
@@ -266,6 +274,36 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
            "training split"},
           {"model", baseline.value().ToJson()},
           {"metrics", score(logistic)}}}}}};
+  if (s.clearances_measured) {
+    // As strategy=gqcnn classifies: the planner never scores a grasp its clearance check drops,
+    // so such a grasp is a negative (probability 0, below every threshold and every admitted
+    // grasp's rank).
+    auto gate = [&](const std::vector<float>& probabilities) {
+      std::vector<float> gated(s.size());
+      for (std::size_t i = 0; i < s.size(); ++i) gated[i] = s.admitted[i] ? probabilities[i] : 0.0F;
+      return gated;
+    };
+    const std::vector<float> admitted(s.admitted.begin(), s.admitted.end());
+    std::size_t agree = 0, admitted_count = 0;
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      agree += s.admitted[i] == s.collision_free[i] ? 1 : 0;
+      admitted_count += s.admitted[i];
+    }
+    const gqcnn::ClearanceRule rule;
+    result["clearance"] = {
+        {"rule",
+         {{"fingertip_reach_m", rule.fingertip_reach_m}, {"min_height_m", rule.min_height_m}}},
+        {"admitted_rate", static_cast<double>(admitted_count) / static_cast<double>(s.size())},
+        {"agreement_with_collision_labels",
+         static_cast<double>(agree) / static_cast<double>(s.size())}};
+    result["gqcnn_with_clearance"] = score(gate(p));
+    result["baselines"]["clearance_check_alone"] = {
+        {"description", "P = 1 for the grasps the clearance check admits, 0 for the others"},
+        {"metrics", score(admitted)}};
+    result["baselines"]["logistic_with_clearance"] = {
+        {"description", "the logistic baseline on the grasps the clearance check admits"},
+        {"metrics", score(gate(logistic))}};
+  }
   if (!overlap.empty()) {
     result["warning"] = "the evaluation data includes the model's training data";
     result["overlap"] = overlap;

@@ -46,8 +46,8 @@ struct Planner {
   std::string name;  // "fge" or "gqcnn:<model file stem>"
   engine::Strategy strategy = engine::Strategy::kFge;
   engine::Models models;
-  bool jaw_check = true;      // gqcnn::PolicyParams::check_jaw_clearance
-  bool contact_check = true;  // gqcnn::PolicyParams::check_contacts
+  bool clearance_check = true;  // gqcnn::PolicyParams::check_clearance
+  bool contact_check = true;    // gqcnn::PolicyParams::check_contacts
 };
 
 // Per planner, one entry per scene: 1 success, 0 failure (no grasp counts as a failure).
@@ -92,7 +92,7 @@ void RunScene(const sim::SimScene& scene, const sim::RenderOptions& render,
     options.gripper = gripper;
     options.fge.top_k = 1;
     options.gqcnn.seed = scene.seed;
-    options.gqcnn.check_jaw_clearance = planners[p].jaw_check;
+    options.gqcnn.check_clearance = planners[p].clearance_check;
     options.gqcnn.check_contacts = planners[p].contact_check;
     options.region_of_interest = workspace;
     auto plan = engine::PlanGrasps(views.depth, render.camera, options, planners[p].models);
@@ -189,7 +189,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
   double camera_height_m = 0.70;
   std::string out_path;
   std::string records_path;
-  const bool without_jaw_check = args.Flag("--also-without-jaw-check");
+  const bool without_clearance_check = args.Flag("--also-without-clearance-check");
   const bool without_contact_check = args.Flag("--also-without-contact-check");
   args.Count("--single-scenes", &single_scenes, 10000);
   args.Count("--clutter-scenes", &clutter_scenes, 10000);
@@ -219,9 +219,9 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
       q.contact_check = false;
       planners.push_back(std::move(q));
     }
-    if (without_jaw_check) {  // the same network, candidates not checked for the open jaws
-      p.name += ":no-jaw-check";
-      p.jaw_check = false;
+    if (without_clearance_check) {  // the same network, candidates not checked for the clearance
+      p.name += ":no-clearance-check";
+      p.clearance_check = false;
       planners.push_back(std::move(p));
     }
   }

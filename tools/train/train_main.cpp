@@ -59,7 +59,7 @@ constexpr const char* kUsage =
     "  deformability (both target policies) on the same scenes; JSON with 95 % intervals.\n"
     "       softgrasp-train gqcnn-picks --model MODEL [--model MODEL2...] [--meshes DIR]\n"
     "                                [--single-scenes N] [--clutter-scenes N] [--seed S]\n"
-    "                                [--camera-height M] [--also-without-jaw-check]\n"
+    "                                [--camera-height M] [--also-without-clearance-check]\n"
     "                                [--also-without-contact-check] [--out FILE]\n"
     "                                [--records FILE]\n"
     "  Simulated picks (docs/gqcnn.md): strategy=gqcnn with each model against classic FGE on\n"
