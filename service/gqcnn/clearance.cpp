@@ -11,9 +11,11 @@ GripperClearance MeasureClearance(const cv::Mat1f& depth_m, const cv::Mat1f& hei
   GripperClearance out;
   if (!(pose.depth_m > 0.0) || !(fx_px > 0.0)) return out;
   const double m_per_px = pose.depth_m / fx_px;
-  const double inner_m = 0.5 * gripper.opening_stroke_m;
-  const double outer_m = inner_m + gripper.finger_thickness_m;
-  const double half_width_m = 0.5 * gripper.finger_width_m;
+  // Every pixel the boxes touch counts: the boxes grown by half a pixel, tested at pixel centres.
+  const double half_px_m = 0.5 * m_per_px;
+  const double inner_m = 0.5 * gripper.opening_stroke_m - half_px_m;
+  const double outer_m = 0.5 * gripper.opening_stroke_m + gripper.finger_thickness_m + half_px_m;
+  const double half_width_m = 0.5 * gripper.finger_width_m + half_px_m;
   const double reach_px = std::hypot(outer_m, half_width_m) / m_per_px;
   const double ca = std::cos(pose.angle_rad), sa = std::sin(pose.angle_rad);
   const int u0 = std::max(0, static_cast<int>(std::floor(pose.center_u_px - reach_px)));
@@ -28,12 +30,16 @@ GripperClearance MeasureClearance(const cv::Mat1f& depth_m, const cv::Mat1f& hei
     const double dv = v - pose.center_v_px;
     for (int u = u0; u <= u1; ++u) {
       const float z = depth_row[u];
-      if (!(z > 0.0F) || !std::isfinite(z) || !(height_row[u] >= min_height_m)) continue;
+      if (!(z > 0.0F) || !std::isfinite(z) || !std::isfinite(height_row[u])) continue;
       const double du = u - pose.center_u_px;
       const double along_m = std::fabs(du * ca + dv * sa) * m_per_px;
       const double across_m = std::fabs(dv * ca - du * sa) * m_per_px;
       if (along_m > outer_m || across_m > half_width_m) continue;
       const double clearance = z - pose.depth_m;
+      if (height_row[u] < min_height_m) {
+        if (along_m >= inner_m) out.floor_m = std::min(out.floor_m, clearance);
+        continue;
+      }
       out.palm_m = std::min(out.palm_m, clearance);
       if (along_m >= inner_m) out.jaws_m = std::min(out.jaws_m, clearance);
     }

@@ -74,7 +74,7 @@ bool SafeRelativePath(const std::string& file) {
 }  // namespace
 
 std::size_t RecordBytes(std::uint32_t version) {
-  const std::size_t clearances = version == kShardVersionWithoutClearance ? 0 : 2;
+  const std::size_t clearances = version == kShardVersionWithoutClearance ? 0 : 3;
   return sizeof(float) * (kCropPixels + 1 + 7 + 2) + 4 /* flags, padding */ +
          4 * sizeof(std::uint32_t) + sizeof(float) * clearances;
 }
@@ -104,6 +104,7 @@ std::string EncodeShard(const std::vector<GraspDatapoint>& datapoints) {
     Put(out, d.grasp_index);
     Put(out, d.jaw_clearance_m);
     Put(out, d.palm_clearance_m);
+    Put(out, d.floor_clearance_m);
   }
   Put<std::uint32_t>(out, Crc32(out));
   return out;
@@ -181,8 +182,11 @@ core::Result<std::vector<GraspDatapoint>> DecodeShard(std::string_view bytes) {
     if (version == kShardVersionWithoutClearance) continue;
     d.jaw_clearance_m = Take<float>(bytes, offset);
     d.palm_clearance_m = Take<float>(bytes, offset);
-    if (!std::isfinite(d.jaw_clearance_m) || !std::isfinite(d.palm_clearance_m)) {
-      return ShardError(where + "clearances must be finite");
+    d.floor_clearance_m = Take<float>(bytes, offset);
+    for (const float clearance : {d.jaw_clearance_m, d.palm_clearance_m, d.floor_clearance_m}) {
+      if (std::isinf(clearance)) {
+        return ShardError(where + "clearances must be finite (or NaN: not measured)");
+      }
     }
   }
   return out;

@@ -47,10 +47,11 @@ struct GraspDatapoint {
   std::uint32_t pose_index = 0;       ///< the object's stable pose, most probable first
   std::uint32_t image_index = 0;      ///< dataset-wide rendered-image number
   std::uint32_t grasp_index = 0;      ///< the grasp's rank in the object's analysis
-  /// gqcnn::MeasureClearance of the grasp in the rendered image (clearance.h), metres; NaN in
-  /// datasets written before it was stored (shard version 1).
+  /// gqcnn::MeasureClearance of the grasp in the rendered image (clearance.h), metres; NaN when
+  /// not measured (every record of a version 1 shard).
   float jaw_clearance_m = std::numeric_limits<float>::quiet_NaN();
   float palm_clearance_m = std::numeric_limits<float>::quiet_NaN();
+  float floor_clearance_m = std::numeric_limits<float>::quiet_NaN();
 };
 
 /// Bytes of one record in a shard file of the version this build writes.

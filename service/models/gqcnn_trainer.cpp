@@ -417,13 +417,14 @@ core::Result<GqcnnSet> LoadGqcnnSet(const std::vector<std::filesystem::path>& di
         set.labels.push_back(r.label ? 1 : 0);
         set.collision_free.push_back(r.collision_free ? 1 : 0);
         set.quality_labels.push_back(r.robust_ferrari_canny > index.metric_threshold ? 1 : 0);
-        const bool measured = std::isfinite(r.jaw_clearance_m) && std::isfinite(r.palm_clearance_m);
+        const bool measured = std::isfinite(r.jaw_clearance_m) &&
+                              std::isfinite(r.palm_clearance_m) &&
+                              std::isfinite(r.floor_clearance_m);
         set.clearances_measured = set.clearances_measured && measured;
-        set.admitted.push_back(!measured ||
-                                       gqcnn::ClearanceRule{}.Admits(
-                                           {r.jaw_clearance_m, r.palm_clearance_m}, core::Gripper{})
-                                   ? 1
-                                   : 0);
+        set.admitted.push_back(
+            !measured || gqcnn::ClearanceRule{}.Admits(gqcnn::StoredClearance(r), core::Gripper{})
+                ? 1
+                : 0);
         set.positives += r.label ? 1 : 0;
         set.object_keys.push_back(object_base + r.object_index);
         const auto [it, inserted] = image_keys.try_emplace(

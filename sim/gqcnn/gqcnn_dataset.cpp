@@ -372,6 +372,7 @@ std::int64_t GqcnnPoseScene::RenderImage(const GqcnnDatasetParams& params, std::
         depth.depth_m, height_m, in_window, window.fx, gripper, min_height_m);
     d.jaw_clearance_m = static_cast<float>(clearance.jaws_m);
     d.palm_clearance_m = static_cast<float>(clearance.palm_m);
+    d.floor_clearance_m = static_cast<float>(clearance.floor_m);
     out->push_back(d);
   }
   if (timing != nullptr) timing->crop_ms += Ms(crop_start);

@@ -48,7 +48,42 @@ TEST(GqcnnClearanceTest, NothingAboveTheFloorLeavesTheGripperClear) {
       MeasureClearance(scene.depth_m, scene.height_m, Pose(0.69), kFx, core::Gripper{}, 0.008);
   EXPECT_EQ(c.jaws_m, kNothingUnderGripperM);
   EXPECT_EQ(c.palm_m, kNothingUnderGripperM);
+  EXPECT_NEAR(c.floor_m, kTableZ - 0.69, 1e-6);
   EXPECT_TRUE(ClearanceRule{}.Admits(c, core::Gripper{}));
+}
+
+// The fingertips may come down onto the floor, into its noise, but not below it: a grasp
+// centre under the table (a floor plane fitted a few millimetres off) is refused.
+TEST(GqcnnClearanceTest, FingersMayComeDownToTheFloorButNotBelowIt) {
+  Scene scene;
+  const GripperClearance above = MeasureClearance(
+      scene.depth_m, scene.height_m, Pose(kTableZ - 0.002), kFx, core::Gripper{}, 0.008);
+  EXPECT_NEAR(above.floor_m, 0.002, 1e-6);
+  EXPECT_TRUE(ClearanceRule{}.Admits(above, core::Gripper{}));
+  // Every third table pixel reads 3 mm nearer (noise): the nearest is 1 mm above the grasp
+  // centre, within the noise allowed.
+  Scene noisy;
+  for (int v = 0; v < kSize; ++v) {
+    for (int u = 0; u < kSize; ++u) {
+      if ((u + v) % 3 == 0) noisy.depth_m(v, u) = static_cast<float>(kTableZ - 0.003);
+    }
+  }
+  const GripperClearance noise = MeasureClearance(
+      noisy.depth_m, noisy.height_m, Pose(kTableZ - 0.002), kFx, core::Gripper{}, 0.008);
+  EXPECT_NEAR(noise.floor_m, -0.001, 1e-6);
+  EXPECT_TRUE(ClearanceRule{}.Admits(noise, core::Gripper{}));
+  const GripperClearance below = MeasureClearance(
+      scene.depth_m, scene.height_m, Pose(kTableZ + 0.004), kFx, core::Gripper{}, 0.008);
+  EXPECT_NEAR(below.floor_m, -0.004, 1e-6);
+  EXPECT_EQ(below.jaws_m, kNothingUnderGripperM);
+  EXPECT_FALSE(ClearanceRule{}.Admits(below, core::Gripper{}));
+  // A flat object 5 mm high (floor by height) under a finger, 4 mm above the fingertips.
+  Scene flat;
+  flat.Block(126, 134, 90, 110, 0.005);
+  const GripperClearance on_flat = MeasureClearance(
+      flat.depth_m, flat.height_m, Pose(kTableZ - 0.001), kFx, core::Gripper{}, 0.008);
+  EXPECT_NEAR(on_flat.floor_m, -0.004, 1e-6);
+  EXPECT_FALSE(ClearanceRule{}.Admits(on_flat, core::Gripper{}));
 }
 
 TEST(GqcnnClearanceTest, TheObjectBetweenTheJawsMeetsOnlyThePalm) {
@@ -90,6 +125,24 @@ TEST(GqcnnClearanceTest, ANeighbourUnderAFingerBlocksIt) {
   EXPECT_TRUE(ClearanceRule{}.Admits(high, core::Gripper{}));
 }
 
+// A pixel counts when the box touches it: at 0.68 m the +u finger's outer face is 33.97 px from
+// the centre, so a column 34 px away (centre 0.03 px beyond the face) is under it, one 35 px
+// away is not.
+TEST(GqcnnClearanceTest, EveryPixelABoxTouchesCounts) {
+  Scene touched;
+  touched.Block(134, 135, 95, 105, 0.03);
+  EXPECT_NEAR(
+      MeasureClearance(touched.depth_m, touched.height_m, Pose(0.68), kFx, core::Gripper{}, 0.008)
+          .jaws_m,
+      0.67 - 0.68, 1e-6);
+  Scene beside;
+  beside.Block(135, 136, 95, 105, 0.03);
+  EXPECT_EQ(
+      MeasureClearance(beside.depth_m, beside.height_m, Pose(0.68), kFx, core::Gripper{}, 0.008)
+          .jaws_m,
+      kNothingUnderGripperM);
+}
+
 TEST(GqcnnClearanceTest, TheFloorMissingReadingsAndPixelsOutsideTheImageDoNotCount) {
   Scene scene;
   // Low bumps (5 mm, under the 8 mm floor margin) and missing readings under both fingers.
@@ -102,7 +155,8 @@ TEST(GqcnnClearanceTest, TheFloorMissingReadingsAndPixelsOutsideTheImageDoNotCou
   const GripperClearance c =
       MeasureClearance(scene.depth_m, scene.height_m, Pose(0.69), kFx, core::Gripper{}, 0.008);
   EXPECT_EQ(c.jaws_m, kNothingUnderGripperM);
-  // With no floor margin the bump counts.
+  EXPECT_NEAR(c.floor_m, 0.695 - 0.69, 1e-6);  // the bumps are floor
+  // With no floor margin the bump is an obstacle.
   const GripperClearance strict =
       MeasureClearance(scene.depth_m, scene.height_m, Pose(0.69), kFx, core::Gripper{}, 0.0);
   EXPECT_NEAR(strict.jaws_m, 0.695 - 0.69, 1e-6);

@@ -28,12 +28,13 @@ GraspDatapoint Sample(std::uint32_t i) {
   d.grasp_index = 3 * i;
   d.jaw_clearance_m = 0.002F * static_cast<float>(i) - 0.001F;
   d.palm_clearance_m = -0.03F;
+  d.floor_clearance_m = 0.015F;
   return d;
 }
 
 // `bytes` (a shard of this build) as a version 1 shard: no clearances, CRC recomputed.
 std::string AsVersion1(const std::string& bytes) {
-  const std::size_t header = 8 + 16, record = RecordBytes(), old_record = record - 8;
+  const std::size_t header = 8 + 16, record = RecordBytes(), old_record = record - 12;
   std::string out = bytes.substr(0, header);
   out[8] = 1;
   for (std::size_t at = header; at + record <= bytes.size() - 4; at += record) {
@@ -59,6 +60,7 @@ void ExpectSame(const GraspDatapoint& a, const GraspDatapoint& b) {
   EXPECT_EQ(a.grasp_index, b.grasp_index);
   EXPECT_EQ(a.jaw_clearance_m, b.jaw_clearance_m);
   EXPECT_EQ(a.palm_clearance_m, b.palm_clearance_m);
+  EXPECT_EQ(a.floor_clearance_m, b.floor_clearance_m);
 }
 
 TEST(GqcnnDatasetFormatTest, ShardRoundTripsBitForBit) {
@@ -100,16 +102,16 @@ TEST(GqcnnDatasetFormatTest, DamagedShardsAreRefusedWithTheReason) {
   GraspDatapoint negative_depth = Sample(0);
   negative_depth.grasp_depth_m = -1.0F;
   refused(EncodeShard({negative_depth}), "grasp depth");
-  GraspDatapoint unmeasured = Sample(0);
-  unmeasured.palm_clearance_m = std::numeric_limits<float>::quiet_NaN();
-  refused(EncodeShard({unmeasured}), "clearances");
+  GraspDatapoint infinite = Sample(0);
+  infinite.palm_clearance_m = std::numeric_limits<float>::infinity();
+  refused(EncodeShard({infinite}), "clearances");
 }
 
 // Datasets written before the clearances were stored still load, with clearances NaN.
 TEST(GqcnnDatasetFormatTest, Version1ShardsAreReadWithoutClearances) {
   const std::vector<GraspDatapoint> in = {Sample(0), Sample(1)};
   const std::string v1 = AsVersion1(EncodeShard(in));
-  ASSERT_EQ(v1.size(), 8 + 16 + 2 * (RecordBytes() - 8) + 4);
+  ASSERT_EQ(v1.size(), 8 + 16 + 2 * (RecordBytes() - 12) + 4);
   const auto out = DecodeShard(v1);
   ASSERT_TRUE(out.ok()) << out.error().message;
   ASSERT_EQ(out.value().size(), 2U);
@@ -117,10 +119,17 @@ TEST(GqcnnDatasetFormatTest, Version1ShardsAreReadWithoutClearances) {
     GraspDatapoint read = out.value()[i];
     EXPECT_TRUE(std::isnan(read.jaw_clearance_m));
     EXPECT_TRUE(std::isnan(read.palm_clearance_m));
+    EXPECT_TRUE(std::isnan(read.floor_clearance_m));
     read.jaw_clearance_m = in[i].jaw_clearance_m;
     read.palm_clearance_m = in[i].palm_clearance_m;
+    read.floor_clearance_m = in[i].floor_clearance_m;
     ExpectSame(in[i], read);  // every other field as written
   }
+  // Re-encoded, they are a current shard whose clearances stay NaN (not measured).
+  const auto again = DecodeShard(EncodeShard(out.value()));
+  ASSERT_TRUE(again.ok()) << again.error().message;
+  EXPECT_TRUE(std::isnan(again.value()[1].floor_clearance_m));
+  EXPECT_EQ(EncodeShard(again.value()), EncodeShard(out.value()));
 }
 
 TEST(GqcnnDatasetFormatTest, IndexRoundTripsAndCountsTotals) {

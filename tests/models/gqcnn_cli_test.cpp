@@ -123,7 +123,7 @@ TEST_F(GqcnnCliTest, TrainsAFewStepsResumesAndEvaluates) {
     ASSERT_TRUE(read.ok());
     for (const gqcnn::GraspDatapoint& d : read.value()) {
       const bool a =
-          gqcnn::ClearanceRule{}.Admits({d.jaw_clearance_m, d.palm_clearance_m}, core::Gripper{});
+          gqcnn::ClearanceRule{}.Admits(gqcnn::StoredClearance(d), core::Gripper{});
       ++records;
       admitted += a ? 1 : 0;
       agree += a == d.collision_free ? 1 : 0;

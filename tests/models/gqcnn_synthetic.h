@@ -9,7 +9,7 @@
 /// the label's two factors: a bar wider than the jaws is a collision (collision_free false), jaws
 /// closing above its top a poor quality (robust Ferrari-Canny 0, else 0.004, against the index's
 /// default threshold 0.002). The gripper clearances are the bar's: its top is under the palm,
-/// and under the jaws too when it is wider than they open.
+/// and under the jaws too when it is wider than they open; else the jaws are over the table.
 
 #include <gtest/gtest.h>
 
@@ -59,6 +59,7 @@ inline gqcnn::GraspDatapoint SyntheticDatapoint(double table_m, double height_m,
   d.label = d.collision_free && d.robust_ferrari_canny > gqcnn::kDexNetMetricThreshold;
   d.palm_clearance_m = static_cast<float>(-grasp_below_top_m);
   d.jaw_clearance_m = d.collision_free ? 1.0F : d.palm_clearance_m;
+  d.floor_clearance_m = d.collision_free ? static_cast<float>(table_m) - d.grasp_depth_m : 1.0F;
   return d;
 }
 

@@ -132,12 +132,14 @@ TEST(GqcnnDatasetTest, CubeDatapointsCarryTheAnalysisValuesAndFaceGraspsAreFree)
         // docs/gqcnn-dataset.md "Positive rates"), so the label follows the rule checked above.
         EXPECT_GT(d.ferrari_canny, gqcnn::kDexNetMetricThreshold) << d.grasp_index;
         EXPECT_GT(d.robust_ferrari_canny, 0.0F) << d.grasp_index;
-        // Its fingers come down beside the cube onto the table, which does not count; the
-        // palm's footprint holds the top face, (0.04 - height) nearer than the grasp centre
-        // (the camera's tilt of up to 5 degrees brings one end up to 3 mm nearer).
+        // Its fingers come down beside the cube onto the table, `height` below the grasp
+        // centre (the camera's tilt of up to 5 degrees moves the nearest table pixel under a
+        // finger up to 3 mm); the palm's footprint holds the top face, (0.04 - height) nearer
+        // than the grasp centre.
         EXPECT_EQ(d.jaw_clearance_m, static_cast<float>(gqcnn::kNothingUnderGripperM));
+        EXPECT_NEAR(d.floor_clearance_m, height_m, 0.004) << d.grasp_index;
         EXPECT_NEAR(d.palm_clearance_m, -(0.04 - height_m), 0.004) << d.grasp_index;
-        EXPECT_TRUE(gqcnn::ClearanceRule{}.Admits({d.jaw_clearance_m, d.palm_clearance_m},
+        EXPECT_TRUE(gqcnn::ClearanceRule{}.Admits(gqcnn::StoredClearance(d),
                                                   core::Gripper{}));
         ++face_grasps;
       }
@@ -222,7 +224,7 @@ TEST(GqcnnDatasetTest, SameSeedSameBytesAndADamagedOrDeletedShardIsRegeneratedAl
     std::size_t agree = 0;
     for (const auto& d : shard0.value()) {
       const bool admitted =
-          gqcnn::ClearanceRule{}.Admits({d.jaw_clearance_m, d.palm_clearance_m}, core::Gripper{});
+          gqcnn::ClearanceRule{}.Admits(gqcnn::StoredClearance(d), core::Gripper{});
       if (admitted == d.collision_free) ++agree;
     }
     std::printf("clearance check agrees with %zu of %zu collision labels\n", agree,
