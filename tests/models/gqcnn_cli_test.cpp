@@ -122,8 +122,7 @@ TEST_F(GqcnnCliTest, TrainsAFewStepsResumesAndEvaluates) {
     const auto read = gqcnn::ReadShard(fs::path(Dir("test")) / shard.file);
     ASSERT_TRUE(read.ok());
     for (const gqcnn::GraspDatapoint& d : read.value()) {
-      const bool a =
-          gqcnn::ClearanceRule{}.Admits(gqcnn::StoredClearance(d), core::Gripper{});
+      const bool a = gqcnn::ClearanceRule{}.Admits(gqcnn::StoredClearance(d), core::Gripper{});
       ++records;
       admitted += a ? 1 : 0;
       agree += a == d.collision_free ? 1 : 0;

@@ -139,8 +139,7 @@ TEST(GqcnnDatasetTest, CubeDatapointsCarryTheAnalysisValuesAndFaceGraspsAreFree)
         EXPECT_EQ(d.jaw_clearance_m, static_cast<float>(gqcnn::kNothingUnderGripperM));
         EXPECT_NEAR(d.floor_clearance_m, height_m, 0.004) << d.grasp_index;
         EXPECT_NEAR(d.palm_clearance_m, -(0.04 - height_m), 0.004) << d.grasp_index;
-        EXPECT_TRUE(gqcnn::ClearanceRule{}.Admits(gqcnn::StoredClearance(d),
-                                                  core::Gripper{}));
+        EXPECT_TRUE(gqcnn::ClearanceRule{}.Admits(gqcnn::StoredClearance(d), core::Gripper{}));
         ++face_grasps;
       }
     }
