@@ -25,7 +25,7 @@
 
 namespace softgrasp::gqcnn {
 
-/// A clearance when no surface above the floor is under a box (and the cap of stored values).
+/// A clearance when nothing is under a box (and the largest value a clearance takes).
 inline constexpr double kNothingUnderGripperM = 1.0;
 
 /// How near the surfaces under the gripper come, as (surface z - grasp depth): negative when a
@@ -44,10 +44,9 @@ inline GripperClearance StoredClearance(const GraspDatapoint& d) {
 
 /// Surfaces under the gripper at `pose`: pixels a box touches (whose centre lies inside the box
 /// grown by half a pixel; the box sizes of `gripper`, opened to its stroke, scaled by
-/// fx / pose.depth_m) and that have a positive finite
-/// depth and a finite height above the floor (`height_m`, same size as `depth_m`); those at least
-/// `min_height_m` high are obstacles, the others floor. Pixels outside the image are not seen and
-/// do not count.
+/// fx / pose.depth_m) that have a positive finite depth and a finite height above the floor
+/// (`height_m`, same size as `depth_m`). Those at least `min_height_m` high are obstacles, the
+/// others floor. Pixels outside the image are not seen and do not count.
 GripperClearance MeasureClearance(const cv::Mat1f& depth_m, const cv::Mat1f& height_m,
                                   const GraspImagePose& pose, double fx_px,
                                   const core::Gripper& gripper, double min_height_m);

@@ -21,7 +21,7 @@ constexpr double kBoundaryFractionOfCrop = 45.0 / 96.0;
 // The grasp centre stays this far above the floor along its pixel's ray: below it the jaws are
 // in the table.
 constexpr double kFloorClearanceM = 0.002;
-// Seed pairs tried per seed candidate wanted, at most (the rest fail the jaw check).
+// Seed pairs tried per seed candidate wanted, at most (the rest fail the clearance check).
 constexpr std::size_t kMaxPairDrawsPerSeed = 20;
 // Two grasps closer than this fraction of the opening and this angle are one (suppression).
 constexpr double kDuplicateDistanceFraction = 0.2;

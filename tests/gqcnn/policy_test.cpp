@@ -184,7 +184,7 @@ TEST(GqcnnPolicyTest, TooWideForTheStrokeGivesNoPairs) {
 
 // A 3 cm wide box (5 cm tall) with a 4 cm tall block 1.5 cm beside its long side: across the
 // box, the 5 cm stroke puts one finger on the block unless the fingertips stay above it. With a
-// quality function that likes everything, the jaw check keeps only grasps whose fingertips
+// quality function that likes everything, the clearance check keeps only grasps whose fingertips
 // clear the block (grasp height above 4 cm); without it, deeper grasps that land on the block
 // are returned too.
 TEST(GqcnnPolicyTest, OpenJawsMustReachTheGraspDepth) {

@@ -292,7 +292,9 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
     const gqcnn::ClearanceRule rule;
     result["clearance"] = {
         {"rule",
-         {{"fingertip_reach_m", rule.fingertip_reach_m}, {"min_height_m", rule.min_height_m}}},
+         {{"fingertip_reach_m", rule.fingertip_reach_m},
+          {"min_height_m", rule.min_height_m},
+          {"floor_noise_m", rule.floor_noise_m}}},
         {"admitted_rate", static_cast<double>(admitted_count) / static_cast<double>(s.size())},
         {"agreement_with_collision_labels",
          static_cast<double>(agree) / static_cast<double>(s.size())}};
