@@ -42,6 +42,8 @@ constexpr double kTieTolerance = 1e-12;
 /// n . x = offset (n outward, unit length).
 struct HullFacet {
   std::vector<int> vertices;
+  /// Qhull's ridges of a merged (non-triangular) facet: the polygon's edges, unordered.
+  std::vector<std::pair<int, int>> edges;
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
   double offset = 0.0;
 };
@@ -77,9 +79,74 @@ std::vector<T*> SetElements(setT* set) {
   return out;
 }
 
+/// The polygon's vertices by angle around their centroid, counter-clockwise about the normal.
+/// Right for a triangle and for any polygon whose vertices are clearly convex; a long, thin merged
+/// facet can come out of order (a vertex near an edge's line sorts to the wrong side of it).
+std::vector<int> SortedByAngle(const std::vector<Eigen::Vector3d>& points, const HullFacet& f) {
+  const Eigen::Vector3d& n = f.normal;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (int v : f.vertices) centroid += points[static_cast<std::size_t>(v)];
+  centroid /= static_cast<double>(f.vertices.size());
+  const Eigen::Vector3d u = n.unitOrthogonal();
+  const Eigen::Vector3d w = n.cross(u);
+  std::vector<std::pair<double, int>> by_angle;
+  for (int v : f.vertices) {
+    const Eigen::Vector3d d = points[static_cast<std::size_t>(v)] - centroid;
+    by_angle.emplace_back(std::atan2(d.dot(w), d.dot(u)), v);
+  }
+  std::sort(by_angle.begin(), by_angle.end());
+  std::vector<int> out;
+  for (const auto& [angle, v] : by_angle) out.push_back(v);
+  return out;
+}
+
+/// The polygon walked along its ridges: the order neighbouring facets agree on. Empty when the
+/// ridges do not form one cycle through every vertex.
+std::vector<int> WalkedAlongRidges(const HullFacet& f) {
+  if (f.edges.size() != f.vertices.size()) return {};
+  std::map<int, std::vector<int>> next_to;
+  for (const auto& [a, b] : f.edges) {
+    next_to[a].push_back(b);
+    next_to[b].push_back(a);
+  }
+  for (const auto& [v, ends] : next_to) {
+    if (ends.size() != 2) return {};
+  }
+  std::vector<int> cycle = {f.edges.front().first};
+  int previous = -1;
+  while (cycle.size() < f.vertices.size()) {
+    const std::vector<int>& ends = next_to[cycle.back()];
+    const int next = ends[0] != previous ? ends[0] : ends[1];
+    if (next == cycle.front()) return {};  // a shorter cycle: not one polygon
+    previous = cycle.back();
+    cycle.push_back(next);
+  }
+  const std::vector<int>& closing = next_to[cycle.back()];
+  if (std::find(closing.begin(), closing.end(), cycle.front()) == closing.end()) return {};
+  return cycle;
+}
+
+/// Puts f.vertices in counter-clockwise order about the outward normal, starting at the smallest
+/// index so the polygon does not depend on Qhull's vertex order.
+void OrderCounterClockwise(const std::vector<Eigen::Vector3d>& points, HullFacet& f) {
+  std::vector<int> order = f.vertices.size() > 3 ? WalkedAlongRidges(f) : std::vector<int>{};
+  if (order.empty()) {
+    order = SortedByAngle(points, f);
+  } else {
+    Eigen::Vector3d area = Eigen::Vector3d::Zero();  // twice the polygon's vector area
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      area += points[static_cast<std::size_t>(order[k])].cross(
+          points[static_cast<std::size_t>(order[(k + 1) % order.size()])]);
+    }
+    if (area.dot(f.normal) < 0.0) std::reverse(order.begin(), order.end());
+  }
+  std::rotate(order.begin(), std::min_element(order.begin(), order.end()), order.end());
+  f.vertices = std::move(order);
+}
+
 /// Convex hull facets of `points` (Qhull, coplanar facets merged within `merge_distance`), each
-/// polygon sorted counter-clockwise around its outward normal. Empty on Qhull failure, with the
-/// exit code in `exit_code`.
+/// polygon counter-clockwise around its outward normal (OrderCounterClockwise). Empty on Qhull
+/// failure, with the exit code in `exit_code`.
 std::vector<HullFacet> ConvexHullFacets(const std::vector<Eigen::Vector3d>& points,
                                         double merge_distance, int& exit_code) {
   std::vector<HullFacet> facets;
@@ -108,28 +175,18 @@ std::vector<HullFacet> ConvexHullFacets(const std::vector<Eigen::Vector3d>& poin
     for (vertexT* vertex : SetElements<vertexT>(facet->vertices)) {
       out.vertices.push_back(qh_pointid(qh, vertex->point));
     }
+    // A merged facet's explicit ridges are its polygon's edges (two vertices each in 3-d).
+    if (!facet->simplicial) {
+      for (ridgeT* ridge : SetElements<ridgeT>(facet->ridges)) {
+        const std::vector<vertexT*> ends = SetElements<vertexT>(ridge->vertices);
+        if (ends.size() != 2) continue;
+        out.edges.emplace_back(qh_pointid(qh, ends[0]->point), qh_pointid(qh, ends[1]->point));
+      }
+    }
     facets.push_back(std::move(out));
   }
 
-  // Sort each polygon by angle around its centroid, counter-clockwise about the outward normal.
-  for (HullFacet& f : facets) {
-    const Eigen::Vector3d& n = f.normal;
-    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-    for (int v : f.vertices) centroid += points[static_cast<std::size_t>(v)];
-    centroid /= static_cast<double>(f.vertices.size());
-    const Eigen::Vector3d u = n.unitOrthogonal();
-    const Eigen::Vector3d w = n.cross(u);
-    std::vector<std::pair<double, int>> by_angle;
-    for (int v : f.vertices) {
-      const Eigen::Vector3d d = points[static_cast<std::size_t>(v)] - centroid;
-      by_angle.emplace_back(std::atan2(d.dot(w), d.dot(u)), v);
-    }
-    std::sort(by_angle.begin(), by_angle.end());
-    for (std::size_t i = 0; i < by_angle.size(); ++i) f.vertices[i] = by_angle[i].second;
-    // Start at the smallest index so the polygon does not depend on Qhull's vertex order.
-    std::rotate(f.vertices.begin(), std::min_element(f.vertices.begin(), f.vertices.end()),
-                f.vertices.end());
-  }
+  for (HullFacet& f : facets) OrderCounterClockwise(points, f);
   return facets;
 }
 

@@ -49,8 +49,9 @@ struct StablePose {
   Eigen::Vector3d face_normal_object = Eigen::Vector3d::UnitZ();
   /// Distance from the COM to the resting facet's plane (mesh units, metres by convention).
   double com_height_m = 0.0;
-  /// The resting facet as indices into mesh.vertices: a convex polygon (>= 3 corners),
-  /// counter-clockwise seen from outside the object (from below the table).
+  /// The resting facet as indices into mesh.vertices: a convex polygon (>= 3 corners; a corner of
+  /// a merged facet may sit inside its outline by up to the merge tolerance), counter-clockwise
+  /// seen from outside the object (from below the table), in the order of the hull's edges.
   std::vector<int> face_vertex_indices;
 };
 
