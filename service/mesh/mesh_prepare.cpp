@@ -22,6 +22,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "service/mesh/hole_filling_internal.h"
 #include "service/mesh/mesh_topology_internal.h"
 
 namespace softgrasp::mesh {
@@ -78,7 +79,9 @@ std::string JoinAnd(const std::vector<std::string>& parts) {
 }
 
 using internal::EdgeKey;
+using internal::FillHoles;
 using internal::HalfEdge;
+using internal::HoleFillResult;
 using internal::UnionFind;
 
 std::uint64_t DirectedKey(int from, int to) {
@@ -367,6 +370,21 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
   }
   const auto at = [&](int v) { return file_point(out.source[Z(v)]); };
 
+  // Small holes: closed with triangles between their boundary vertices, or left for the refusal
+  // below, which then says why they were not filled.
+  std::string holes_not_filled;
+  if (options.fill_hole_max_edges > 0) {
+    std::vector<Vec3> kept_pos(out.source.size());
+    for (std::size_t v = 0; v < out.source.size(); ++v) kept_pos[v] = pos[Z(out.source[v])];
+    const HoleFillResult filled = FillHoles(
+        kept_pos, faces, {options.fill_hole_max_edges, options.fill_hole_max_area_fraction});
+    counts.filled_holes = filled.holes;
+    counts.filled_hole_edges = filled.boundary_edges;
+    counts.hole_faces_added = filled.new_faces;
+    counts.filled_area_fraction = filled.area_fraction;
+    holes_not_filled = filled.not_filled;
+  }
+
   // Edges: each must have exactly two faces.
   const int n = static_cast<int>(faces.size());
   std::vector<HalfEdge> half;
@@ -419,7 +437,7 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
           "the mesh is not closed: " + Count(boundary, "boundary edge", "boundary edges") +
           " (edges with a single face, or an odd number: holes in the surface), "
           "first " +
-          boundary_example);
+          boundary_example + (holes_not_filled.empty() ? "" : "; not filled: " + holes_not_filled));
     }
     if (nonmanifold > 0) {
       parts.push_back("the mesh is not 2-manifold: " + Count(nonmanifold, "edge is", "edges are") +
@@ -767,6 +785,12 @@ std::vector<std::string> RepairLines(const RepairCounts& c) {
     }
     lines.push_back("dropped " + JoinAnd(what) + ", holding " + Percent(c.dropped_volume_fraction) +
                     " of the volume");
+  }
+  if (c.filled_holes > 0) {
+    lines.push_back("filled " + Count(c.filled_holes, "hole", "holes") + " (" +
+                    Count(c.filled_hole_edges, "boundary edge", "boundary edges") + ") with " +
+                    Count(c.hole_faces_added, "new face", "new faces") + ", adding " +
+                    Percent(c.filled_area_fraction) + " to the surface area");
   }
   if (c.collinear_faces_removed > 0) {
     lines.push_back("removed " +

@@ -56,8 +56,18 @@ void CheckPrepared(const TriangleMesh& decoded, const softgrasp::mesh::PrepareOp
   }
   const softgrasp::mesh::PreparedMesh& p = prepared.value();
   const TriangleMesh& m = p.mesh;
-  if (m.faces.empty() || static_cast<std::int64_t>(m.faces.size()) > options.max_triangles ||
-      m.faces.size() > decoded.faces.size() || m.vertices.size() > decoded.vertices.size()) {
+  // Filled holes add faces (a hole of k edges takes k - 2 triangles between its own vertices),
+  // never vertices; everything else only drops or flips.
+  const auto& c = p.counts;
+  if (c.hole_faces_added != c.filled_hole_edges - 2 * c.filled_holes || c.filled_holes < 0 ||
+      !(c.filled_area_fraction >= 0.0 &&
+        c.filled_area_fraction <= options.fill_hole_max_area_fraction)) {
+    std::abort();
+  }
+  if (m.faces.empty() ||
+      static_cast<std::int64_t>(m.faces.size()) > options.max_triangles + c.hole_faces_added ||
+      m.faces.size() > decoded.faces.size() + static_cast<std::size_t>(c.hole_faces_added) ||
+      m.vertices.size() > decoded.vertices.size()) {
     std::abort();
   }
   for (const auto& v : m.vertices) {

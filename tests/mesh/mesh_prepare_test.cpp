@@ -16,6 +16,7 @@
 #include <map>
 #include <random>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -32,6 +33,7 @@ using softgrasp::testing::BoxMesh;
 using ::testing::HasSubstr;
 using testing::MakeTorus;
 using testing::Merge;
+using ::testing::Not;
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
@@ -375,19 +377,142 @@ TEST(MeshPrepareTest, ZeroAreaFaceOfABipyramidIsFlippedAwayWithTheTouchingItCaus
 // ---------------------------------------------------------------------------------------------
 // Refusals: each class with its code
 
-TEST(MeshPrepareTest, OpenBoxIsRefusedNamingItsBoundaryEdges) {
-  TriangleMesh m = Cube(0.05);
-  m.faces.erase(m.faces.begin() + 2);
-  const core::Error e = MustRefuse(m);
+TEST(MeshPrepareTest, OpenSurfacesAreRefusedNamingTheirBoundaryEdges) {
+  // One side of a box is a sheet: closing it would double its area.
+  TriangleMesh sheet = Cube(0.05);
+  sheet.faces.resize(2);
+  const core::Error e = MustRefuse(sheet);
   EXPECT_EQ(e.code, ErrorCode::kUnprocessable);
   EXPECT_EQ(e.field, "mesh");
-  EXPECT_THAT(e.message, HasSubstr("the mesh is not closed: 3 boundary edges"));
+  EXPECT_THAT(e.message, HasSubstr("the mesh is not closed: 4 boundary edges"));
   EXPECT_THAT(e.message, HasSubstr("first between ("));
+  EXPECT_THAT(e.message, HasSubstr("; not filled: filling the 1 hole would add 100% to the surface "
+                                   "area, more than the 50% filled (is the surface open on one "
+                                   "side?)"));
 
-  // A box without its whole lid: 4 boundary edges.
-  TriangleMesh open = Cube(0.05);
-  open.faces.erase(open.faces.begin() + 2, open.faces.begin() + 4);
-  EXPECT_THAT(MustRefuse(open).message, HasSubstr("4 boundary edges"));
+  // Allowed to double the area, the patch would be the sheet's own two triangles turned over:
+  // their diagonal would get four faces.
+  PrepareOptions any_area;
+  any_area.fill_hole_max_area_fraction = 2.0;
+  EXPECT_THAT(MustRefuse(sheet, any_area).message,
+              HasSubstr("; not filled: a patch would join two vertices that the surface already "
+                        "joins by an edge"));
+
+  // With hole filling off, a box missing one triangle is refused, and the refusal does not
+  // mention filling.
+  TriangleMesh m = Cube(0.05);
+  m.faces.erase(m.faces.begin() + 2);
+  PrepareOptions no_filling;
+  no_filling.fill_hole_max_edges = 0;
+  const core::Error off = MustRefuse(m, no_filling);
+  EXPECT_THAT(off.message, HasSubstr("the mesh is not closed: 3 boundary edges"));
+  EXPECT_THAT(off.message, Not(HasSubstr("not filled")));
+}
+
+// A box missing a triangle, or its whole lid (a scan of an object standing on the table misses its
+// bottom): the patch is the missing side, so the box comes back exactly.
+TEST(MeshPrepareTest, BoxMissingATriangleOrItsLidIsClosedAgain) {
+  const double side = 0.05;
+  TriangleMesh one = Cube(side);
+  one.faces.erase(one.faces.begin() + 2);
+  TriangleMesh lid = Cube(side);
+  lid.faces.erase(lid.faces.begin() + 2, lid.faces.begin() + 4);
+  for (const auto& [mesh, edges, faces, percent] :
+       {std::tuple{one, 3, 1, "9.09%"}, std::tuple{lid, 4, 2, "20%"}}) {
+    const PreparedMesh p = MustPrepare(mesh);
+    ExpectSolid(p);
+    EXPECT_EQ(p.counts.filled_holes, 1);
+    EXPECT_EQ(p.counts.filled_hole_edges, edges);
+    EXPECT_EQ(p.counts.hole_faces_added, faces);
+    EXPECT_EQ(p.counts.reoriented_faces, 0);
+    EXPECT_NEAR(p.volume_m3, side * side * side, 1e-15);
+    EXPECT_THAT(Repairs(p),
+                HasSubstr("filled 1 hole (" + std::to_string(edges) + " boundary edges) with " +
+                          std::to_string(faces) + (faces == 1 ? " new face" : " new faces") +
+                          ", adding " + percent + " to the surface area"));
+  }
+}
+
+/// `m` without the faces that use vertex v: a hole whose boundary is v's ring of neighbours.
+TriangleMesh WithoutFan(TriangleMesh m, int v) {
+  std::erase_if(m.faces,
+                [v](const std::array<int, 3>& f) { return f[0] == v || f[1] == v || f[2] == v; });
+  return m;
+}
+
+// Scans of real objects come with holes where the scanner saw nothing; small ones are closed with
+// triangles between their boundary vertices, facing out like their neighbours.
+TEST(MeshPrepareTest, SmallHolesAreFilledFacingOut) {
+  const int n = 32, m = 16;  // torus grid: vertex (i, j) is i * m + j, 6 faces around each
+  const TriangleMesh torus = MakeTorus(0.04, 0.01, n, m);
+  const PreparedMesh whole = MustPrepare(torus);
+  const TriangleMesh holed = WithoutFan(WithoutFan(torus, 0), 16 * m + 8);
+  ASSERT_EQ(holed.faces.size(), torus.faces.size() - 12);
+
+  const PreparedMesh p = MustPrepare(holed);
+  ExpectSolid(p);
+  EXPECT_EQ(p.counts.filled_holes, 2);
+  EXPECT_EQ(p.counts.filled_hole_edges, 12);
+  EXPECT_EQ(p.counts.hole_faces_added, 8);  // a hexagon takes 4 triangles
+  EXPECT_EQ(p.counts.reoriented_faces, 0);  // the patches already face out
+  EXPECT_EQ(p.mesh.faces.size(), torus.faces.size() - 4);
+  // Each hexagon's patch is flatter than the six faces it replaces, so it adds a little less
+  // area than they had and takes a sliver of volume off.
+  auto area = [](const TriangleMesh& mesh) {
+    double sum = 0;
+    for (const auto& f : mesh.faces) {
+      const auto at = [&](int v) {
+        const auto& x = mesh.vertices[static_cast<std::size_t>(v)];
+        return Eigen::Vector3d(x[0], x[1], x[2]);
+      };
+      sum += 0.5 * (at(f[1]) - at(f[0])).cross(at(f[2]) - at(f[0])).norm();
+    }
+    return sum;
+  };
+  const double removed_fraction = (area(torus) - area(holed)) / area(holed);
+  EXPECT_GT(p.counts.filled_area_fraction, 0.9 * removed_fraction);
+  EXPECT_LT(p.counts.filled_area_fraction, removed_fraction);
+  EXPECT_LT(p.volume_m3, whole.volume_m3);
+  EXPECT_GT(p.volume_m3, 0.999 * whole.volume_m3);
+  EXPECT_THAT(Repairs(p), HasSubstr("filled 2 holes (12 boundary edges) with 8 new faces, adding "
+                                    "1.18% to the surface area"));
+
+  // The same holes as a triangle soup, one face turned the wrong way: welded, filled, reoriented.
+  TriangleMesh soup = Soup(holed);
+  std::swap(soup.faces[100][1], soup.faces[100][2]);
+  const PreparedMesh q = MustPrepare(soup);
+  ExpectSolid(q);
+  EXPECT_EQ(q.counts.filled_holes, 2);
+  EXPECT_NEAR(q.volume_m3, p.volume_m3, 1e-15);
+}
+
+TEST(MeshPrepareTest, HolesBeyondTheLimitsAreNotFilled) {
+  const int m = 16;
+  const TriangleMesh holed = WithoutFan(MakeTorus(0.04, 0.01, 32, m), 5 * m + 3);
+  PrepareOptions few_edges;
+  few_edges.fill_hole_max_edges = 5;
+  const core::Error e = MustRefuse(holed, few_edges);
+  EXPECT_EQ(e.code, ErrorCode::kUnprocessable);
+  EXPECT_THAT(e.message, HasSubstr("the mesh is not closed: 6 boundary edges"));
+  EXPECT_THAT(e.message, HasSubstr("not filled: a hole has 6 boundary edges, more than the 5 of a "
+                                   "hole that is filled (is the surface open on one side?)"));
+  PrepareOptions little_area;
+  little_area.fill_hole_max_area_fraction = 0.001;
+  EXPECT_THAT(MustRefuse(holed, little_area).message,
+              HasSubstr("not filled: filling the 1 hole would add 0.639% to the surface area, "
+                        "more than the 0.1% filled"));
+
+  // Two triangles that share one corner leave two holes touching there: not a simple loop.
+  TriangleMesh touching = MakeTorus(0.04, 0.01, 32, m);
+  auto id = [&](int i, int j) { return i * m + j; };
+  std::erase_if(touching.faces, [&](const std::array<int, 3>& f) {
+    return f == std::array<int, 3>{id(4, 4), id(5, 5), id(4, 5)} ||
+           f == std::array<int, 3>{id(5, 5), id(6, 5), id(6, 6)};
+  });
+  ASSERT_EQ(touching.faces.size(), 32U * m * 2 - 2);
+  EXPECT_THAT(MustRefuse(touching).message,
+              HasSubstr("not filled: two holes meet at a vertex, or the faces around a hole "
+                        "disagree on their orientation"));
 }
 
 TEST(MeshPrepareTest, CubesSharingAnEdgeAreRefusedAsNonManifold) {
@@ -660,7 +785,10 @@ std::map<std::string, Seed> PrepareCorpusFiles() {
   files["ok_prep_soup_flipped_facet.stl"] = {WriteStl(flipped, Encoding::kAscii), true};
   TriangleMesh open = cube;
   open.faces.erase(open.faces.begin() + 2);
-  files["ok_prep_open_box.obj"] = {WriteObj(open), false};
+  files["ok_prep_open_box.obj"] = {WriteObj(open), true};  // the hole is filled
+  TriangleMesh sheet = cube;
+  sheet.faces.resize(2);
+  files["ok_prep_sheet.obj"] = {WriteObj(sheet), false};
   files["ok_prep_cubes_sharing_edge.obj"] = {WriteObj(Merge(cube, Cube(0.05, {0.05, 0.05, 0}))),
                                              false};
   files["ok_prep_cube_with_inner_cube.ply"] = {

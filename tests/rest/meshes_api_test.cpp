@@ -129,6 +129,22 @@ TEST_F(MeshesApiTest, RepairsAreDoneAndSaid) {
   EXPECT_EQ(body["stable_poses"].size(), 6u);
 }
 
+TEST_F(MeshesApiTest, AScanMissingItsBottomIsClosedAndSaysSo) {
+  // A cube without its bottom side, as a scanner looking down at an object on a table sees it.
+  mesh::TriangleMesh open = softgrasp::testing::CentredBoxMesh(Eigen::Vector3d::Constant(0.02));
+  open.faces.erase(open.faces.begin() + 2, open.faces.begin() + 4);
+  const auto reply = Post("?num_grasps=5&robust_samples=0", mesh::WriteObj(open));
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  const json body = json::parse(reply.body);
+  std::string repairs;
+  for (const auto& line : body["mesh"]["repairs"]) repairs += line.get<std::string>() + "\n";
+  EXPECT_NE(repairs.find("filled 1 hole (4 boundary edges) with 2 new faces, adding 20% to the "
+                         "surface area"),
+            std::string::npos)
+      << repairs;
+  EXPECT_EQ(body["stable_poses"].size(), 6u);
+}
+
 TEST_F(MeshesApiTest, EveryBadMeshClassGetsItsStatusAndAMessage) {
   // Not a mesh: 415.
   const auto text = Post("", "hello, this is not a mesh\n");
@@ -138,12 +154,14 @@ TEST_F(MeshesApiTest, EveryBadMeshClassGetsItsStatusAndAMessage) {
                         "v 0 0 0\nv 1 0 0\nv 0 nan 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\n"
                         "f 2 4 3\n");
   EXPECT_EQ(nan.status, 400) << nan.body;
-  // Not closed: a cube without its top, 422.
+  // Not closed: one side of a cube, a sheet whose "hole" is too large to fill, 422.
   mesh::TriangleMesh open = softgrasp::testing::CentredBoxMesh(Eigen::Vector3d::Constant(0.02));
-  open.faces.erase(open.faces.begin() + 2, open.faces.begin() + 4);
+  open.faces.resize(2);
   const auto not_closed = Post("", mesh::WriteObj(open));
   EXPECT_EQ(not_closed.status, 422) << not_closed.body;
   EXPECT_NE(Error(not_closed)["message"].get<std::string>().find("closed"), std::string::npos)
+      << not_closed.body;
+  EXPECT_NE(Error(not_closed)["message"].get<std::string>().find("not filled"), std::string::npos)
       << not_closed.body;
   // Non-manifold: two cubes sharing an edge, 422.
   mesh::TriangleMesh two = softgrasp::testing::BoxMesh({0, 0, 0}, {0.02, 0.02, 0.02});
