@@ -6,7 +6,6 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cstddef>
-#include <cstdio>
 #include <exception>
 #include <iterator>
 #include <string>
@@ -21,12 +20,6 @@ namespace {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Face = std::array<int, 3>;
-
-std::string Percent(double fraction) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3g%%", fraction * 100.0);
-  return text;
-}
 
 double TriangleArea(const std::vector<std::array<double, 3>>& p, const Face& t) {
   const auto at = [&](int v) {

@@ -57,12 +57,6 @@ std::string Point(const Vec3& p) {
   return "(" + Num(p[0]) + ", " + Num(p[1]) + ", " + Num(p[2]) + ")";
 }
 
-std::string Percent(double fraction) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g%%", 100.0 * fraction);
-  return buf;
-}
-
 /// "1 face", "3 faces".
 std::string Count(long long n, const std::string& one, const std::string& many) {
   return std::to_string(n) + " " + (n == 1 ? one : many);
@@ -82,6 +76,7 @@ using internal::EdgeKey;
 using internal::FillHoles;
 using internal::HalfEdge;
 using internal::HoleFillResult;
+using internal::Percent;
 using internal::UnionFind;
 
 std::uint64_t DirectedKey(int from, int to) {
@@ -840,7 +835,9 @@ core::Result<PreparedMesh> PrepareMesh(TriangleMesh mesh, const PrepareOptions& 
       !(options.max_debris_volume_fraction <= 1.0) ||
       !(options.self_intersection_box_pairs_per_face >= 0.0) ||
       !std::isfinite(options.self_intersection_box_pairs_per_face) ||
-      options.self_intersection_min_box_pairs < 0) {
+      options.self_intersection_min_box_pairs < 0 || options.fill_hole_max_edges < 0 ||
+      !(options.fill_hole_max_area_fraction >= 0.0) ||
+      !std::isfinite(options.fill_hole_max_area_fraction)) {
     throw std::invalid_argument("PrepareOptions: a limit is not positive and finite");
   }
   if (!Positive(options.unit_scale_m)) {

@@ -1,12 +1,15 @@
 #pragma once
 /// Internal to softgrasp::mesh: the small pieces the mesh checks (mesh_check.cpp) and the
 /// preparation of uploads (mesh_prepare.cpp) both walk a mesh's topology with: union-find over
-/// indices, half-edges sorted by their undirected edge, and that edge's key.
+/// indices, half-edges sorted by their undirected edge, and that edge's key; and how the repair
+/// and refusal lines of the preparation and the hole filling write a percentage.
 
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <numeric>
+#include <string>
 #include <vector>
 
 namespace softgrasp::mesh::internal {
@@ -45,6 +48,13 @@ inline std::uint64_t EdgeKey(int a, int b) {
   const auto lo = static_cast<std::uint64_t>(std::min(a, b));
   const auto hi = static_cast<std::uint64_t>(std::max(a, b));
   return lo << 32 | hi;
+}
+
+/// A fraction as a percentage with three significant digits: 0.0118 -> "1.18%".
+inline std::string Percent(double fraction) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g%%", 100.0 * fraction);
+  return text;
 }
 
 }  // namespace softgrasp::mesh::internal

@@ -728,6 +728,14 @@ TEST(MeshPrepareTest, BadUnitOrRescaleIsAnInvalidArgumentAndBadLimitsThrow) {
   bad = {};
   bad.min_extent_m = NAN;
   EXPECT_THROW(PrepareMesh(Cube(0.05), bad), std::invalid_argument);
+  bad = {};
+  bad.fill_hole_max_edges = -1;  // 0 means "never fill"; below that is a mistake
+  EXPECT_THROW(PrepareMesh(Cube(0.05), bad), std::invalid_argument);
+  for (const double fraction : {-0.1, double{NAN}, double{INFINITY}}) {
+    bad = {};
+    bad.fill_hole_max_area_fraction = fraction;
+    EXPECT_THROW(PrepareMesh(Cube(0.05), bad), std::invalid_argument) << fraction;
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
