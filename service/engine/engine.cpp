@@ -48,8 +48,9 @@ PlanError PlanGqcnn(const PlanContext& c, Plan* plan) {
   const models::GqcnnModel& model = *c.models.gqcnn;
   auto planned =
       gqcnn::PlanGqcnnGrasps(c.scene, c.camera, c.options.gripper, params,
-                             [&model](std::span<const float> crops, std::span<const float> depths) {
-                               return model.Predict(crops, depths);
+                             [&model](std::span<const float> crops, std::span<const float> depths,
+                                      std::span<const float> clearances) {
+                               return model.Predict(crops, depths, clearances);
                              });
   if (!planned.ok()) return planned.error();
   const gqcnn::PolicyPlan& p = planned.value();

@@ -230,10 +230,12 @@ class Planner {
   // carry (clearance.h), on the inpainted depth and the fitted floor's heights.
   bool GripperClears(const GraspImagePose& pose) const {
     if (!params_.check_clearance) return true;
-    const ClearanceRule rule;
-    return rule.Admits(MeasureClearance(scene_.depth_filled_m, scene_.height_m, pose, camera_.fx,
-                                        gripper_, rule.min_height_m),
-                       gripper_);
+    return ClearanceRule{}.Admits(Clearance(pose), gripper_);
+  }
+
+  GripperClearance Clearance(const GraspImagePose& pose) const {
+    return MeasureClearance(scene_.depth_filled_m, scene_.height_m, pose, camera_.fx, gripper_,
+                            ClearanceRule{}.min_height_m);
   }
 
   // Draws the grasp depth below the surface, kept above the floor.
@@ -255,13 +257,18 @@ class Planner {
     if (n == 0) return 0;
     std::vector<float> crops(n * kCropPixels);
     std::vector<float> depths(n);
+    std::vector<float> clearances(n * 3);
     const core::DepthImage filled{scene_.depth_filled_m};
     for (std::size_t i = 0; i < n; ++i) {
       const Candidate& c = candidates[first + i];
       CropGrasp(filled, c.pose, crops.data() + i * kCropPixels, crop_px_);
       depths[i] = static_cast<float>(c.pose.depth_m);
+      const GripperClearance clearance = Clearance(c.pose);
+      clearances[i * 3] = static_cast<float>(clearance.jaws_m);
+      clearances[i * 3 + 1] = static_cast<float>(clearance.palm_m);
+      clearances[i * 3 + 2] = static_cast<float>(clearance.floor_m);
     }
-    const std::vector<float> scores = quality(crops, depths);
+    const std::vector<float> scores = quality(crops, depths, clearances);
     if (scores.size() != n) {
       return core::MakeError(core::ErrorCode::kInternal, "the grasp quality function returned " +
                                                              std::to_string(scores.size()) +

@@ -5,8 +5,9 @@
 ///
 ///   gqcnn::PolicyParams params;
 ///   auto plan = gqcnn::PlanGqcnnGrasps(scene, camera, gripper, params,
-///       [&](std::span<const float> crops, std::span<const float> depths) {
-///         return model.Predict(crops, depths); });
+///       [&](std::span<const float> crops, std::span<const float> depths,
+///           std::span<const float> clearances) { return model.Predict(crops, depths, clearances);
+///           });
 ///
 /// Units: metres, pixels of the input image, radians; poses in the camera frame C.
 
@@ -25,10 +26,12 @@
 
 namespace softgrasp::gqcnn {
 
-/// P(success) in [0, 1] for n crops (n x kCropPixels, CropGrasp's convention) and their n grasp
-/// depths. Must return exactly n values.
+/// P(success) in [0, 1] for n crops (n x kCropPixels, CropGrasp's convention), their n grasp
+/// depths and their gripper clearances (n x 3: jaws, palm, floor, as MeasureClearance gives them
+/// on the scene; clearance.h). Must return exactly n values.
 using QualityFunction = std::function<std::vector<float>(std::span<const float> crops_depth_m,
-                                                         std::span<const float> grasp_depths_m)>;
+                                                         std::span<const float> grasp_depths_m,
+                                                         std::span<const float> clearances_m)>;
 
 struct PolicyParams {
   /// Antipodal candidates scored before refinement (Dex-Net CEM: 250).

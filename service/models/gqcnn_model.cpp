@@ -36,17 +36,24 @@ core::Result<GqcnnModel> GqcnnModel::Load(const std::filesystem::path& path) {
       std::to_string(c.conv1_channels) + ", 3x3x" + std::to_string(c.conv2_channels) + ", fc3 " +
       std::to_string(c.fc3_units) + ", pc1 " + std::to_string(c.pc1_units) + ", fc4 " +
       std::to_string(c.fc4_units) + ", " + std::to_string(impl->parameters) + " parameters" +
-      (c.factored ? ", factored output" : "");
+      (c.factored ? ", factored output" : "") + (c.clearance_inputs ? ", clearance inputs" : "");
   return GqcnnModel(std::move(impl));
 }
 
-std::vector<float> GqcnnModel::Predict(std::span<const float> crops,
-                                       std::span<const float> depths) const {
+std::vector<float> GqcnnModel::Predict(std::span<const float> crops, std::span<const float> depths,
+                                       std::span<const float> clearances) const {
   if (crops.size() != depths.size() * gqcnn::kCropPixels) {
     throw std::invalid_argument("GqcnnModel::Predict: " + std::to_string(crops.size()) +
                                 " crop values for " + std::to_string(depths.size()) +
                                 " grasp depths (expected " + std::to_string(gqcnn::kCropPixels) +
                                 " per grasp)");
+  }
+  const bool taken = takes_clearances();
+  if ((!clearances.empty() || taken) && clearances.size() != depths.size() * 3) {
+    throw std::invalid_argument("GqcnnModel::Predict: " + std::to_string(clearances.size()) +
+                                " clearance values for " + std::to_string(depths.size()) +
+                                " grasp depths (expected 3 per grasp" +
+                                (taken ? "; this network takes them)" : " or none)"));
   }
   constexpr std::size_t kChunk = 256;
   std::vector<float> out(depths.size());
@@ -56,8 +63,9 @@ std::vector<float> GqcnnModel::Predict(std::span<const float> crops,
     const std::size_t n = std::min(kChunk, depths.size() - begin);
     torch::Tensor images, poses;
     NormaliseGqcnnInputs(crops.data() + begin * gqcnn::kCropPixels, depths.data() + begin,
-                         static_cast<std::int64_t>(n), impl_->loaded.normalisation, &images,
-                         &poses);
+                         taken ? clearances.data() + begin * 3 : nullptr,
+                         static_cast<std::int64_t>(n), impl_->loaded.config,
+                         impl_->loaded.normalisation, &images, &poses);
     const torch::Tensor p =
         GqcnnSuccessProbability(impl_->loaded.net->forward(images, poses), impl_->loaded.config)
             .contiguous();
@@ -66,6 +74,7 @@ std::vector<float> GqcnnModel::Predict(std::span<const float> crops,
   return out;
 }
 
+bool GqcnnModel::takes_clearances() const { return impl_->loaded.config.clearance_inputs; }
 const nlohmann::json& GqcnnModel::Card() const { return impl_->loaded.card; }
 std::int64_t GqcnnModel::parameter_count() const { return impl_->parameters; }
 const std::string& GqcnnModel::description() const { return impl_->description; }

@@ -30,10 +30,16 @@ class GqcnnModel {
   /// values are taken as missing too); `grasp_depths_m`: n. Normalisation (the training set's
   /// statistics) happens inside. Runs without gradients in batches of up to 256 crops.
   /// Thread-safe: concurrent calls are serialised (one forward at a time; the 2-core budget is
-  /// shared anyway). @throws std::invalid_argument when crops_depth_m.size() !=
-  /// grasp_depths_m.size() * kCropPixels.
+  /// shared anyway). `clearances_m`: n x 3 (jaws, palm, floor; gqcnn::GripperClearance, in
+  /// metres), read when the network takes them (takes_clearances()), may be empty otherwise.
+  /// @throws std::invalid_argument when crops_depth_m.size() != grasp_depths_m.size() *
+  /// kCropPixels, or clearances_m is neither empty nor 3 per grasp, or empty when they are taken.
   std::vector<float> Predict(std::span<const float> crops_depth_m,
-                             std::span<const float> grasp_depths_m) const;
+                             std::span<const float> grasp_depths_m,
+                             std::span<const float> clearances_m = {}) const;
+
+  /// Whether the network takes the gripper's clearance besides crop and grasp depth.
+  bool takes_clearances() const;
 
   /// The model card stored in the file: training data, steps, time, validation metrics,
   /// normalisation, architecture, parameter count, the baseline fitted on the training split.

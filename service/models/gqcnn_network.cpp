@@ -1,5 +1,6 @@
 #include "service/models/gqcnn_network.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -22,7 +23,8 @@ torch::Tensor ConfigTensor(const GqcnnNetConfig& c) {
        static_cast<std::int64_t>(c.conv1_2_kernel), static_cast<std::int64_t>(c.fc3_units),
        static_cast<std::int64_t>(c.pc1_units), static_cast<std::int64_t>(c.fc4_units),
        static_cast<std::int64_t>(c.local_response_norm ? 1 : 0),
-       static_cast<std::int64_t>(c.factored ? 1 : 0)},
+       static_cast<std::int64_t>(c.factored ? 1 : 0),
+       static_cast<std::int64_t>(c.clearance_inputs ? 1 : 0)},
       torch::kInt64);
 }
 
@@ -49,7 +51,17 @@ void TruncatedNormal(torch::Tensor t, double std) {
   t.clamp_(-2.0 * std, 2.0 * std);
 }
 
+/// Config values per format version: [version, 7 sizes, LRN] (1), + factored (2), + clearance
+/// inputs (3).
+std::int64_t ConfigLength(std::int64_t version) { return 8 + version; }
+
 }  // namespace
+
+float GqcnnClearanceInput(double clearance_m) {
+  if (!std::isfinite(clearance_m)) return 0.0F;
+  return static_cast<float>(std::clamp(clearance_m, -kGqcnnClearanceClampM, kGqcnnClearanceClampM) /
+                            kGqcnnClearanceScaleM);
+}
 
 torch::Tensor GqcnnSuccessProbability(const torch::Tensor& logits, const GqcnnNetConfig& config) {
   if (config.factored)
@@ -81,7 +93,8 @@ std::int64_t GqcnnForwardMacs(const GqcnnNetConfig& c) {
   macs += full * c1 * c1 * c.conv1_2_kernel * c.conv1_2_kernel;         // conv1_2
   macs += half * c2 * c1 * 9 + half * c2 * c2 * 9;                      // conv2_1, conv2_2
   macs += (half / 4) * c2 * c.fc3_units;                                // fc3
-  macs += c.pc1_units + (c.fc3_units + c.pc1_units) * c.fc4_units + c.fc4_units * 2;  // rest
+  macs += GqcnnPoseInputs(c) * c.pc1_units + (c.fc3_units + c.pc1_units) * c.fc4_units +
+          c.fc4_units * 2;  // rest
   return macs;
 }
 
@@ -98,7 +111,7 @@ GqcnnNetImpl::GqcnnNetImpl(const GqcnnNetConfig& c) : config_(c) {
                              torch::nn::LocalResponseNormOptions(5).alpha(1e-4).beta(0.75).k(1.0)));
   fc3_ = register_module(
       "fc3", torch::nn::Linear((kSide / 4) * (kSide / 4) * c.conv2_channels, c.fc3_units));
-  pc1_ = register_module("pc1", torch::nn::Linear(1, c.pc1_units));
+  pc1_ = register_module("pc1", torch::nn::Linear(GqcnnPoseInputs(c), c.pc1_units));
   fc4_ = register_module("fc4", torch::nn::Linear(c.fc3_units + c.pc1_units, c.fc4_units));
   fc5_ = register_module("fc5", torch::nn::Linear(c.fc4_units, 2));
 }
@@ -131,11 +144,16 @@ void InitGqcnnWeights(GqcnnNet& net) {
   }
 }
 
-void NormaliseGqcnnInputs(const float* crops, const float* depths, std::int64_t n,
+void NormaliseGqcnnInputs(const float* crops, const float* depths, const float* clearances,
+                          std::int64_t n, const GqcnnNetConfig& config,
                           const GqcnnNormalisation& norm, torch::Tensor* images,
                           torch::Tensor* poses) {
+  if (config.clearance_inputs && clearances == nullptr && n > 0) {
+    throw std::invalid_argument("NormaliseGqcnnInputs: the network takes clearances");
+  }
+  const int pose_inputs = GqcnnPoseInputs(config);
   *images = torch::empty({n, 1, kSide, kSide}, torch::kFloat32);
-  *poses = torch::empty({n, 1}, torch::kFloat32);
+  *poses = torch::empty({n, pose_inputs}, torch::kFloat32);
   float* im = images->data_ptr<float>();
   float* po = poses->data_ptr<float>();
   const auto im_mean = static_cast<float>(norm.im_mean_m);
@@ -147,7 +165,9 @@ void NormaliseGqcnnInputs(const float* crops, const float* depths, std::int64_t 
   }
   for (std::int64_t i = 0; i < n; ++i) {
     const float d = depths[i];
-    po[i] = std::isfinite(d) ? static_cast<float>((d - norm.pose_mean_m) / norm.pose_std_m) : 0.0f;
+    float* row = po + i * pose_inputs;
+    row[0] = std::isfinite(d) ? static_cast<float>((d - norm.pose_mean_m) / norm.pose_std_m) : 0.0f;
+    for (int k = 1; k < pose_inputs; ++k) row[k] = GqcnnClearanceInput(clearances[i * 3 + k - 1]);
   }
 }
 
@@ -162,6 +182,9 @@ nlohmann::json GqcnnConfigJson(const GqcnnNetConfig& c) {
           {"local_response_norm", c.local_response_norm},
           {"output", c.factored ? "factored: sigmoid(collision-free) x sigmoid(quality)"
                                 : "softmax (fails, succeeds)"},
+          {"pose_inputs", c.clearance_inputs
+                              ? "grasp depth; jaw, palm and floor clearance (clamped to +-6 cm)"
+                              : "grasp depth"},
           {"forward_macs_per_crop", GqcnnForwardMacs(c)}};
 }
 
@@ -205,11 +228,11 @@ core::Result<LoadedGqcnnNet> LoadGqcnnNet(const std::filesystem::path& path) {
     if (!archive.try_read("config", config_t) || config_t.numel() < 1) return fail("no config");
     const auto cfg = config_t.to(torch::kInt64).contiguous();
     const std::int64_t* v = cfg.data_ptr<std::int64_t>();
-    if (v[0] != 1 && v[0] != kGqcnnFormatVersion) {
+    if (v[0] < 1 || v[0] > kGqcnnFormatVersion) {
       return fail("format version " + std::to_string(v[0]) + ", this build reads versions 1 to " +
                   std::to_string(kGqcnnFormatVersion));
     }
-    if (cfg.numel() != (v[0] == 1 ? 9 : 10)) return fail("config of the wrong length");
+    if (cfg.numel() != ConfigLength(v[0])) return fail("config of the wrong length");
     for (int i = 1; i < 9; ++i) {
       if (v[i] < 0 || v[i] > 1024) return fail("implausible config");
     }
@@ -226,6 +249,10 @@ core::Result<LoadedGqcnnNet> LoadGqcnnNet(const std::filesystem::path& path) {
     if (v[0] >= 2) {
       if (v[9] != 0 && v[9] != 1) return fail("implausible config");
       out.config.factored = v[9] == 1;
+    }
+    if (v[0] >= 3) {
+      if (v[10] != 0 && v[10] != 1) return fail("implausible config");
+      out.config.clearance_inputs = v[10] == 1;
     }
     if (!ValidConfig(out.config)) return fail("implausible config");
     if (!archive.try_read("normalisation", norm_t) || norm_t.numel() != 4) {

@@ -39,9 +39,24 @@ struct GqcnnNetConfig {
   /// quality is above the label threshold"; P(succeeds) = sigmoid(a) * sigmoid(b), and training
   /// supervises each factor with its own label besides the product (docs/gqcnn.md).
   bool factored = false;
+  /// The pose stream also takes the gripper's clearance (gqcnn/clearance.h: jaws, palm, floor),
+  /// measured at the depth image's full resolution, which the 32x32 crop resolves to about 4 mm
+  /// (docs/gqcnn.md, "Clearance as an input"). Not in Dex-Net 2.0.
+  bool clearance_inputs = false;
 
   bool operator==(const GqcnnNetConfig&) const = default;
 };
+
+/// Inputs of the pose stream: the grasp depth, then the three clearances when the config takes
+/// them.
+inline int GqcnnPoseInputs(const GqcnnNetConfig& config) { return config.clearance_inputs ? 4 : 1; }
+
+/// A clearance (metres) as the network takes it: clamped to +-kGqcnnClearanceClampM (beyond
+/// that the gripper is clear, or blocked, either way) and divided by kGqcnnClearanceScaleM.
+/// Non-finite values (not measured) become 0.
+inline constexpr double kGqcnnClearanceClampM = 0.06;
+inline constexpr double kGqcnnClearanceScaleM = 0.02;
+float GqcnnClearanceInput(double clearance_m);
 
 /// P(succeeds) [N] from fc5's logits [N, 2], as `config.factored` says.
 torch::Tensor GqcnnSuccessProbability(const torch::Tensor& logits, const GqcnnNetConfig& config);
@@ -71,7 +86,7 @@ class GqcnnNetImpl : public torch::nn::Module {
  public:
   /// Throws std::invalid_argument for widths outside 1..1024 or even/out-of-range kernels.
   explicit GqcnnNetImpl(const GqcnnNetConfig& config);
-  /// image: [N, 1, 32, 32] normalised; pose: [N, 1] normalised -> logits [N, 2].
+  /// image: [N, 1, 32, 32] normalised; pose: [N, GqcnnPoseInputs] normalised -> logits [N, 2].
   torch::Tensor forward(const torch::Tensor& image, const torch::Tensor& pose);
 
  private:
@@ -85,19 +100,22 @@ TORCH_MODULE(GqcnnNet);
 /// He initialisation as Dex-Net (truncated normal, std sqrt(2 / fan_in)), biases 0.
 void InitGqcnnWeights(GqcnnNet& net);
 
-/// Normalises raw crops (n x 32 x 32 absolute depths in metres, 0 or non-finite = missing) and
-/// grasp depths into network inputs: images [n, 1, 32, 32] and poses [n, 1].
-void NormaliseGqcnnInputs(const float* crops_depth_m, const float* grasp_depths_m, std::int64_t n,
+/// Normalises raw crops (n x 32 x 32 absolute depths in metres, 0 or non-finite = missing),
+/// grasp depths and, when `config.clearance_inputs`, clearances (n x 3: jaws, palm, floor, in
+/// metres; otherwise ignored and may be null) into network inputs: images [n, 1, 32, 32] and
+/// poses [n, GqcnnPoseInputs(config)].
+void NormaliseGqcnnInputs(const float* crops_depth_m, const float* grasp_depths_m,
+                          const float* clearances_m, std::int64_t n, const GqcnnNetConfig& config,
                           const GqcnnNormalisation& norm, torch::Tensor* images,
                           torch::Tensor* poses);
 
-/// Model file format version of GQ-CNN models. Version 2 adds the `factored` flag to the config;
-/// version 1 files (softmax output) still load.
-inline constexpr std::int64_t kGqcnnFormatVersion = 2;
+/// Model file format version of GQ-CNN models. Version 2 adds the `factored` flag to the config,
+/// version 3 `clearance_inputs`; versions 1 (softmax output) and 2 still load.
+inline constexpr std::int64_t kGqcnnFormatVersion = 3;
 
 /// Writes the network (its parameters), config, normalisation and `card` (JSON, stored as UTF-8
 /// bytes) to `path` as a libtorch archive: "kind" marker, "config" = int64 [version, 7 sizes, LRN,
-/// factored],
+/// factored, clearance inputs],
 /// "normalisation" = float64 [4], "card" = uint8 [bytes], "net/...". Writes a temporary file and
 /// renames it. Throws on I/O failure.
 void SaveGqcnnNet(const std::filesystem::path& path, GqcnnNet& net, const GqcnnNetConfig& config,

@@ -239,22 +239,24 @@ std::vector<float> PredictRecords(GqcnnNet& net, const GqcnnNetConfig& config, c
   net->eval();
   constexpr std::size_t kChunk = 1024;
   std::vector<float> probs(records.size());
-  std::vector<float> crops, depths;
+  std::vector<float> crops, depths, clearances;
   double loss_sum = 0;
   for (std::size_t begin = 0; begin < records.size(); begin += kChunk) {
     const std::size_t n = std::min(kChunk, records.size() - begin);
     crops.resize(n * kPixels);
     depths.resize(n);
+    clearances.resize(n * 3);
     std::vector<std::int64_t> labels(n);
     for (std::size_t k = 0; k < n; ++k) {
       const std::size_t i = records[begin + k];
       std::copy_n(set.crop(i), kPixels, crops.data() + k * kPixels);
+      if (config.clearance_inputs) std::copy_n(set.clearance(i), 3, clearances.data() + k * 3);
       depths[k] = set.grasp_depths_m[i];
       labels[k] = set.labels[i];
     }
     torch::Tensor images, poses;
-    NormaliseGqcnnInputs(crops.data(), depths.data(), static_cast<std::int64_t>(n), norm, &images,
-                         &poses);
+    NormaliseGqcnnInputs(crops.data(), depths.data(), clearances.data(),
+                         static_cast<std::int64_t>(n), config, norm, &images, &poses);
     const torch::Tensor logits = net->forward(images, poses);
     const torch::Tensor target = torch::tensor(labels, torch::kInt64);
     loss_sum += GqcnnSuccessLoss(logits, target, config, {}, /*sum=*/true).item<double>();
@@ -421,6 +423,9 @@ core::Result<GqcnnSet> LoadGqcnnSet(const std::vector<std::filesystem::path>& di
                               std::isfinite(r.palm_clearance_m) &&
                               std::isfinite(r.floor_clearance_m);
         set.clearances_measured = set.clearances_measured && measured;
+        for (const double c : {r.jaw_clearance_m, r.palm_clearance_m, r.floor_clearance_m}) {
+          set.clearances_m.push_back(static_cast<float>(c));
+        }
         set.admitted.push_back(
             !measured || gqcnn::ClearanceRule{}.Admits(gqcnn::StoredClearance(r), core::Gripper{})
                 ? 1
@@ -691,6 +696,13 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
                                           const GqcnnProgress& progress) {
   if (auto error = CheckOptions(o)) return *error;
   GqcnnSplit split = SplitByObject(set, o.validation_fraction, o.seed);
+  if (o.network.clearance_inputs &&
+      (!set.clearances_measured || set.clearances_m.size() != 3 * set.size())) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "a network with clearance inputs needs datasets with gripper clearances (made "
+                     "by softgrasp-sim gqcnn-dataset since generator version 3)",
+                     "data");
+  }
   if (o.admitted_only) {
     if (!set.clearances_measured) {
       return MakeError(ErrorCode::kInvalidArgument,
@@ -835,6 +847,7 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
   const int run_start = p.step;
   std::vector<float> crops(static_cast<std::size_t>(o.batch) * kPixels);
   std::vector<float> depths(static_cast<std::size_t>(o.batch));
+  std::vector<float> clearances(static_cast<std::size_t>(o.batch) * 3);
   std::vector<std::int64_t> labels(static_cast<std::size_t>(o.batch));
   std::vector<float> collision_free(static_cast<std::size_t>(o.batch));
   std::vector<float> quality(static_cast<std::size_t>(o.batch));
@@ -856,6 +869,10 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
       std::copy_n(set.crop(i), kPixels, crop);
       AugmentCrop(crop, o.augmentation, rng);
       depths[static_cast<std::size_t>(k)] = set.grasp_depths_m[i];
+      // The clearances are the least over both fingers, so the crop's symmetries keep them.
+      if (o.network.clearance_inputs) {
+        std::copy_n(set.clearance(i), 3, clearances.data() + static_cast<std::size_t>(k) * 3);
+      }
       labels[static_cast<std::size_t>(k)] = set.labels[i];
       if (o.network.factored) {
         collision_free[static_cast<std::size_t>(k)] = set.collision_free[i];
@@ -863,7 +880,8 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
       }
     }
     torch::Tensor images, poses;
-    NormaliseGqcnnInputs(crops.data(), depths.data(), o.batch, norm, &images, &poses);
+    NormaliseGqcnnInputs(crops.data(), depths.data(), clearances.data(), o.batch, o.network, norm,
+                         &images, &poses);
     const torch::Tensor target = torch::tensor(labels, torch::kInt64);
     const double lr =
         BaseLearningRate(o) * std::pow(o.lr_decay, static_cast<double>((step - 1) / decay_steps));

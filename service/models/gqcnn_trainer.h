@@ -35,6 +35,9 @@ struct GqcnnSet {
   /// defaults, the dataset's 5 cm gripper): the grasps strategy=gqcnn lets the network score.
   /// 1 for records of datasets written before clearances were stored.
   std::vector<std::uint8_t> admitted;
+  /// The stored clearances, size() x 3: jaws, palm, floor (gqcnn::GripperClearance, metres; NaN
+  /// in records of datasets written before clearances were).
+  std::vector<float> clearances_m;
   /// Every record carries its clearances (false when a dataset predates them).
   bool clearances_measured = true;
   std::vector<std::uint32_t> object_keys;  ///< into object_names
@@ -45,6 +48,7 @@ struct GqcnnSet {
   std::size_t size() const { return labels.size(); }
   std::size_t images() const;
   const float* crop(std::size_t i) const { return crops_depth_m.data() + i * gqcnn::kCropPixels; }
+  const float* clearance(std::size_t i) const { return clearances_m.data() + i * 3; }
 };
 
 /// Reads every finished shard of every directory. `progress(shards_done, shards_total)`.

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "service/core/preprocess.h"
+#include "service/gqcnn/clearance.h"
 #include "service/gqcnn/dataset_format.h"
 
 namespace softgrasp::gqcnn {
@@ -59,7 +60,8 @@ double CentreRowObjectFraction(const float* crop) {
 // A stand-in GQ-CNN with a known optimum: grasps whose centre row crosses a narrow band of
 // object, with the centre on the object and the grasp depth 2 cm below the top, score highest.
 QualityFunction NarrowBandQuality(int* calls = nullptr) {
-  return [calls](std::span<const float> crops, std::span<const float> depths) {
+  return [calls](std::span<const float> crops, std::span<const float> depths,
+                 std::span<const float>) {
     if (calls) ++*calls;
     std::vector<float> out(depths.size());
     for (std::size_t i = 0; i < depths.size(); ++i) {
@@ -187,7 +189,9 @@ TEST(GqcnnPolicyTest, TooWideForTheStrokeGivesNoPairs) {
 // quality function that likes everything, the clearance check keeps only grasps whose fingertips
 // clear the block (grasp height above 4 cm); without it, deeper grasps that land on the block
 // are returned too.
-TEST(GqcnnPolicyTest, OpenJawsMustReachTheGraspDepth) {
+// A 9 x 3 x 5 cm box in the middle of the image and, 1.5 cm beside its long side, a 4 cm high
+// block filling the image's lower part: open jaws across the box low enough land on the block.
+core::Scene BoxBesideBlockScene() {
   core::DepthImage depth = BoxScene(160, 120, 0.09, 0.03, 0.05, 0.0);
   const double block_top = kTableZ - 0.04;
   const double px_per_m = TestCamera().fx / block_top;
@@ -197,17 +201,24 @@ TEST(GqcnnPolicyTest, OpenJawsMustReachTheGraspDepth) {
       depth.depth_m(v, u) = static_cast<float>(block_top);
     }
   }
-  const core::Scene scene = Prepared(depth);
-  const auto anything = [](std::span<const float>, std::span<const float> depths) {
+  return Prepared(depth);
+}
+
+// Grasps across the box of BoxBesideBlockScene (|angle - 90 deg| < 20 deg) near its middle.
+bool AcrossTheBox(const core::Grasp& g) {
+  return std::fabs(g.angle_rad - kPi / 2) < 0.35 && std::fabs(g.center_v_px - 120) < 10 &&
+         std::fabs(g.center_u_px - 160) < 60;
+}
+
+TEST(GqcnnPolicyTest, OpenJawsMustReachTheGraspDepth) {
+  const core::Scene scene = BoxBesideBlockScene();
+  const auto anything = [](std::span<const float>, std::span<const float> depths,
+                           std::span<const float>) {
     return std::vector<float>(depths.size(), 0.5F);
   };
   PolicyParams params;
   params.num_grasps = 50;
-  // Grasps across the box (|angle - 90 deg| < 20 deg) near its middle.
-  const auto across_box = [](const core::Grasp& g) {
-    return std::fabs(g.angle_rad - kPi / 2) < 0.35 && std::fabs(g.center_v_px - 120) < 10 &&
-           std::fabs(g.center_u_px - 160) < 60;
-  };
+  const auto across_box = AcrossTheBox;
   auto checked = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, params, anything);
   ASSERT_TRUE(checked.ok());
   int across = 0;
@@ -225,6 +236,45 @@ TEST(GqcnnPolicyTest, OpenJawsMustReachTheGraspDepth) {
     if (across_box(g.grasp) && g.grasp.grasp_height_m < 0.035) ++landing;
   }
   EXPECT_GT(landing, 0);
+}
+
+// The quality function is handed each candidate's clearance as the check measures it (a network
+// with clearance inputs reads them), in the candidates' order: scored by the clearance rule
+// alone, with the planner's own check off, every returned grasp's score says whether the rule
+// admits the clearance measured again at its pose, and the block stops some of them.
+TEST(GqcnnPolicyTest, TheQualityFunctionSeesEachCandidatesClearance) {
+  const core::Scene scene = BoxBesideBlockScene();
+  const ClearanceRule rule;
+  int blocked = 0;
+  const auto by_clearance = [&](std::span<const float>, std::span<const float> depths,
+                                std::span<const float> clearances) {
+    EXPECT_EQ(clearances.size(), 3 * depths.size());
+    std::vector<float> p(depths.size());
+    for (std::size_t i = 0; i < depths.size(); ++i) {
+      const GripperClearance c{clearances[3 * i], clearances[3 * i + 1], clearances[3 * i + 2]};
+      const bool admitted = rule.Admits(c, core::Gripper{});
+      p[i] = admitted ? 0.9F : 0.1F;
+      blocked += admitted ? 0 : 1;
+    }
+    return p;
+  };
+  PolicyParams params;
+  params.num_grasps = 400;
+  params.check_clearance = false;
+  auto plan = PlanGqcnnGrasps(scene, TestCamera(), core::Gripper{}, params, by_clearance);
+  ASSERT_TRUE(plan.ok());
+  EXPECT_GT(blocked, 0);
+  int high = 0, low = 0;
+  for (const PolicyGrasp& g : plan.value().grasps) {
+    const GripperClearance c =
+        MeasureClearance(scene.depth_filled_m, scene.height_m, g.image_pose, TestCamera().fx,
+                         core::Gripper{}, rule.min_height_m);
+    EXPECT_EQ(g.quality > 0.5F, rule.Admits(c, core::Gripper{}))
+        << "jaws " << c.jaws_m << " palm " << c.palm_m << " floor " << c.floor_m;
+    (g.quality > 0.5F ? high : low) += 1;
+  }
+  EXPECT_GT(high, 0);
+  EXPECT_GT(low, 0);
 }
 
 // A ball of radius `radius_m` resting on the table under pixel (cu, cv).
@@ -255,7 +305,8 @@ TEST(GqcnnPolicyTest, FingersMustMeetFacesThatHold) {
   const double radius = 0.02;
   const core::Scene scene = Prepared(BallScene(160, 120, radius));
   const double crown_z = kTableZ - 2 * radius;
-  const auto shallow_first = [crown_z](std::span<const float>, std::span<const float> depths) {
+  const auto shallow_first = [crown_z](std::span<const float>, std::span<const float> depths,
+                                       std::span<const float>) {
     std::vector<float> out(depths.size());
     for (std::size_t i = 0; i < depths.size(); ++i) {
       out[i] = static_cast<float>(std::exp(-std::max(0.0, depths[i] - crown_z) / 0.01));
@@ -290,13 +341,14 @@ TEST(GqcnnPolicyTest, RefusesBadParametersAndBadQualityFunctions) {
   params = {};
   params.cem_elite_fraction = 1.5;
   EXPECT_EQ(ValidatePolicyParams(params)->field, "cem_elite_fraction");
-  auto wrong_count = [](std::span<const float>, std::span<const float> depths) {
+  auto wrong_count = [](std::span<const float>, std::span<const float> depths,
+                        std::span<const float>) {
     return std::vector<float>(depths.size() + 1, 0.5F);
   };
   auto result = PlanGqcnnGrasps(scene, TestCamera(), {}, {}, wrong_count);
   ASSERT_FALSE(result.ok());
   EXPECT_EQ(result.error().code, core::ErrorCode::kInternal);
-  auto nan = [](std::span<const float>, std::span<const float> depths) {
+  auto nan = [](std::span<const float>, std::span<const float> depths, std::span<const float>) {
     return std::vector<float>(depths.size(), std::nanf(""));
   };
   EXPECT_EQ(PlanGqcnnGrasps(scene, TestCamera(), {}, {}, nan).error().code,

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <vector>
 
 #include "service/models/gqcnn_model.h"
@@ -66,7 +67,11 @@ TEST(ShippedGqcnn, MeetsItsRecordedScoreOnTheBarClampAndBeatsTheBaseline) {
   ASSERT_GT(s.positives, 0u);
   ASSERT_LT(s.positives, s.size());
 
-  const std::vector<float> net = model.value().Predict(s.crops_depth_m, s.grasp_depths_m);
+  ASSERT_TRUE(s.clearances_measured);
+  const std::vector<float> net = model.value().Predict(s.crops_depth_m, s.grasp_depths_m,
+                                                       model.value().takes_clearances()
+                                                           ? std::span<const float>(s.clearances_m)
+                                                           : std::span<const float>());
   auto baseline = LogisticBaseline::FromJson(card.at("baseline"));
   ASSERT_TRUE(baseline.ok()) << baseline.error().message;
   std::vector<float> logistic(s.size());

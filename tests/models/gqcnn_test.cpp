@@ -79,7 +79,8 @@ TEST(GqcnnModelTest, SavedFileGivesTheSameOutputsAndCard) {
   std::vector<float> crops, depths;
   RandomInputs(300, 9, &crops, &depths);  // more than one Predict chunk
   torch::Tensor images, poses;
-  NormaliseGqcnnInputs(crops.data(), depths.data(), 300, kNorm, &images, &poses);
+  NormaliseGqcnnInputs(crops.data(), depths.data(), nullptr, 300, GqcnnNetConfig{}, kNorm, &images,
+                       &poses);
   torch::Tensor expected;
   {
     torch::NoGradGuard no_grad;
@@ -127,7 +128,7 @@ TEST(GqcnnModelTest, FactoredOutputIsTheProductOfTwoSigmoids) {
   std::vector<float> crops, depths;
   RandomInputs(20, 3, &crops, &depths);
   torch::Tensor images, poses, logits;
-  NormaliseGqcnnInputs(crops.data(), depths.data(), 20, kNorm, &images, &poses);
+  NormaliseGqcnnInputs(crops.data(), depths.data(), nullptr, 20, config, kNorm, &images, &poses);
   {
     torch::NoGradGuard no_grad;
     logits = net->forward(images, poses);
@@ -170,6 +171,84 @@ TEST(GqcnnModelTest, ReadsVersionOneFiles) {
   // A version-2 config of version 1's length is refused.
   RewriteConfig(v2, dir.path() / "short.pt",
                 torch::tensor({2, 8, 16, 7, 3, 128, 16, 128, 0}, torch::kInt64), &net);
+  auto s = GqcnnModel::Load(dir.path() / "short.pt");
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("wrong length"), std::string::npos) << s.error().message;
+}
+
+// A network with clearance inputs: its pose stream takes the grasp depth and the three
+// clearances (clamped to +-6 cm, in units of 2 cm); the flag survives the model file, Predict
+// needs the clearances, and they change its answer. Version 2 files (without the flag) load.
+TEST(GqcnnModelTest, ClearanceInputsReachThePoseStream) {
+  SetTorchThreads(1);
+  EXPECT_FLOAT_EQ(GqcnnClearanceInput(0.01), 0.5F);
+  EXPECT_FLOAT_EQ(GqcnnClearanceInput(-0.03), -1.5F);
+  EXPECT_FLOAT_EQ(GqcnnClearanceInput(1.0), 3.0F);  // nothing under the gripper: clamped
+  EXPECT_FLOAT_EQ(GqcnnClearanceInput(-0.5), -3.0F);
+  EXPECT_FLOAT_EQ(GqcnnClearanceInput(std::nan("")), 0.0F);
+
+  testing::TempDir dir("gqcnn-clearance");
+  GqcnnNetConfig config;
+  config.clearance_inputs = true;
+  EXPECT_EQ(GqcnnPoseInputs(config), 4);
+  EXPECT_EQ(GqcnnForwardMacs(config), GqcnnForwardMacs(GqcnnNetConfig{}) + 3 * config.pc1_units);
+  torch::manual_seed(8);
+  GqcnnNet net(config);
+  InitGqcnnWeights(net);
+  net->eval();
+  const fs::path path = dir.path() / "m.pt";
+  SaveGqcnnNet(path, net, config, kNorm, json::object());
+  auto model = GqcnnModel::Load(path);
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  EXPECT_TRUE(model.value().takes_clearances());
+  EXPECT_NE(model.value().description().find("clearance inputs"), std::string::npos);
+
+  std::vector<float> crops, depths;
+  RandomInputs(4, 2, &crops, &depths);
+  const std::vector<float> clear = {0.02F, 0.0F,   1.0F,  0.01F, -0.03F, 0.005F,
+                                    0.0F,  -0.06F, 0.02F, 1.0F,  1.0F,   1.0F};
+  torch::Tensor images, poses, expected;
+  NormaliseGqcnnInputs(crops.data(), depths.data(), clear.data(), 4, config, kNorm, &images,
+                       &poses);
+  ASSERT_EQ(poses.size(1), 4);
+  EXPECT_NEAR(poses[1][0].item<float>(), (depths[1] - 0.64) / 0.04, 1e-5);
+  EXPECT_FLOAT_EQ(poses[1][1].item<float>(), 0.5F);
+  EXPECT_FLOAT_EQ(poses[1][2].item<float>(), -1.5F);
+  EXPECT_FLOAT_EQ(poses[1][3].item<float>(), 0.25F);
+  {
+    torch::NoGradGuard no_grad;
+    expected = torch::softmax(net->forward(images, poses), 1).select(1, 1).contiguous();
+  }
+  const std::vector<float> p = model.value().Predict(crops, depths, clear);
+  ASSERT_EQ(p.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_NEAR(p[i], expected[static_cast<std::int64_t>(i)].item<float>(), 1e-6F) << i;
+  }
+  std::vector<float> other = clear;
+  other[0] = -0.02F;  // the first grasp's jaws now meet something
+  EXPECT_NE(model.value().Predict(crops, depths, other)[0], p[0]);
+  EXPECT_THROW((void)model.value().Predict(crops, depths), std::invalid_argument);
+  EXPECT_THROW((void)model.value().Predict(crops, depths, std::span(clear).first(9)),
+               std::invalid_argument);
+
+  // A network without them ignores none-given and refuses a wrong count.
+  GqcnnNet plain = MakeNet(3);
+  SaveGqcnnNet(dir.path() / "plain.pt", plain, GqcnnNetConfig{}, kNorm, json::object());
+  auto plain_model = GqcnnModel::Load(dir.path() / "plain.pt");
+  ASSERT_TRUE(plain_model.ok());
+  EXPECT_FALSE(plain_model.value().takes_clearances());
+  EXPECT_EQ(plain_model.value().Predict(crops, depths, clear),
+            plain_model.value().Predict(crops, depths));
+  EXPECT_THROW((void)plain_model.value().Predict(crops, depths, std::span(clear).first(3)),
+               std::invalid_argument);
+  // Version 2 (no clearance flag) still loads; a version-3 config of version 2's length does not.
+  RewriteConfig(dir.path() / "plain.pt", dir.path() / "v2.pt",
+                torch::tensor({2, 8, 16, 7, 3, 128, 16, 128, 0, 0}, torch::kInt64), &plain);
+  auto v2 = GqcnnModel::Load(dir.path() / "v2.pt");
+  ASSERT_TRUE(v2.ok()) << v2.error().message;
+  EXPECT_EQ(v2.value().Predict(crops, depths), plain_model.value().Predict(crops, depths));
+  RewriteConfig(dir.path() / "plain.pt", dir.path() / "short.pt",
+                torch::tensor({3, 8, 16, 7, 3, 128, 16, 128, 0, 0}, torch::kInt64), &plain);
   auto s = GqcnnModel::Load(dir.path() / "short.pt");
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("wrong length"), std::string::npos) << s.error().message;
@@ -489,7 +568,8 @@ TEST_F(GqcnnTrainingTest, FactoredNetworkLearnsEachFactor) {
     depths.push_back(set.grasp_depths_m[i]);
   }
   torch::Tensor images, poses, logits;
-  NormaliseGqcnnInputs(crops.data(), depths.data(), static_cast<std::int64_t>(depths.size()),
+  NormaliseGqcnnInputs(crops.data(), depths.data(), nullptr,
+                       static_cast<std::int64_t>(depths.size()), loaded.value().config,
                        loaded.value().normalisation, &images, &poses);
   {
     torch::NoGradGuard no_grad;
@@ -520,6 +600,48 @@ TEST_F(GqcnnTrainingTest, FactoredNetworkLearnsEachFactor) {
   auto refused = TrainGqcnn(o, bare);
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, core::ErrorCode::kInvalidArgument);
+}
+
+// Labels that only the clearances tell (the jaws' clearance above 3 mm; the crops are the
+// synthetic set's, unrelated to these labels): a network with clearance inputs learns them, one
+// without cannot. Measured with seed 11 (1 thread): 0.97 against 0.54 at best.
+TEST_F(GqcnnTrainingTest, ClearanceInputsLearnWhatTheCropDoesNotShow) {
+  SetTorchThreads(1);
+  GqcnnSet set = Set();
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<float> jaws(-0.02F, 0.02F), other(-0.08F, 0.08F);
+  set.positives = 0;
+  for (std::size_t i = 0; i < set.size(); ++i) {
+    float* c = set.clearances_m.data() + 3 * i;
+    c[0] = jaws(rng);
+    c[1] = other(rng);
+    c[2] = other(rng);
+    set.labels[i] = c[0] > 0.003F ? 1 : 0;
+    set.positives += set.labels[i];
+  }
+  GqcnnTrainOptions o = SmallRun(root_->path() / "clearance" / "m.pt");
+  o.network.clearance_inputs = true;
+  auto with = TrainGqcnn(o, set);
+  ASSERT_TRUE(with.ok()) << with.error().message;
+  o.out = root_->path() / "crop-only" / "m.pt";
+  o.network.clearance_inputs = false;
+  auto without = TrainGqcnn(o, set);
+  ASSERT_TRUE(without.ok()) << without.error().message;
+  std::cout << "balanced accuracy with clearance inputs " << with.value().best.balanced_accuracy
+            << ", without " << without.value().best.balanced_accuracy << "\n";
+  EXPECT_GT(with.value().best.balanced_accuracy, 0.9);
+  EXPECT_LT(without.value().best.balanced_accuracy, 0.7);
+  auto loaded = LoadGqcnnNet(root_->path() / "clearance" / "m.pt");
+  ASSERT_TRUE(loaded.ok());
+  EXPECT_TRUE(loaded.value().config.clearance_inputs);
+
+  // Datasets written before clearances were stored cannot train it.
+  GqcnnSet old = set;
+  old.clearances_measured = false;
+  o.network.clearance_inputs = true;
+  auto refused = TrainGqcnn(o, old);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "data");
 }
 
 TEST_F(GqcnnTrainingTest, ResumedRunEqualsAnUninterruptedOne) {

@@ -10,6 +10,7 @@
 #include <iostream>
 #include <memory>
 #include <random>
+#include <span>
 
 #include "service/cli/args.h"
 #include "service/cli/files.h"
@@ -32,10 +33,13 @@ const char* const kGqcnnUsage =
     "                             [--seed S] [--resume] [--eval-every N] [--checkpoint-every N]\n"
     "                             [--validation-fraction F] [--conv1-channels C]\n"
     "                             [--conv2-channels C] [--fc-units U] [--no-augmentation]\n"
-    "                             [--no-gain] [--factored] [--admitted-only] [--threads T]\n"
+    "                             [--no-gain] [--factored] [--clearance-inputs]\n"
+    "                             [--admitted-only] [--threads T]\n"
     "  Trains the GQ-CNN on softgrasp-sim gqcnn-dataset directories (object-wise 80/20 split,\n"
     "  Dex-Net 2.0 augmentations). Writes MODEL.pt (best validation balanced accuracy), its card\n"
     "  MODEL.json, MODEL.ckpt (resumable), MODEL_loss.csv/.png and MODEL_accuracy.png.\n"
+    "  --clearance-inputs feeds the stored gripper clearances (jaws, palm, floor) to the pose\n"
+    "  stream besides the grasp depth.\n"
     "  --admitted-only trains and validates on the grasps whose stored gripper clearance the\n"
     "  planner admits (the ones strategy=gqcnn lets the network score).\n"
     "       softgrasp-train gqcnn-eval --model MODEL.pt --data DIR [--data DIR2 ...]\n"
@@ -76,6 +80,7 @@ void ReadNetworkOptions(cli::Args& args, models::GqcnnNetConfig* c) {
   if (args.Int("--fc-units", 1, 1024, &fc)) c->fc3_units = c->fc4_units = fc;
   if (args.Flag("--no-lrn")) c->local_response_norm = false;
   if (args.Flag("--factored")) c->factored = true;
+  if (args.Flag("--clearance-inputs")) c->clearance_inputs = true;
   if ((c->conv1_1_kernel % 2) == 0 || (c->conv1_2_kernel % 2) == 0) {
     args.Fail("--conv1-1-kernel and --conv1-2-kernel must be odd", "--conv1-1-kernel");
   }
@@ -208,9 +213,17 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
   auto set = Load(data);
   if (!set.ok()) return FailError(set.error());
   const models::GqcnnSet& s = set.value();
+  if (model.value().takes_clearances() && !s.clearances_measured) {
+    return Fail(
+        "the model takes gripper clearances, and these datasets predate them (regenerate "
+        "them with softgrasp-sim gqcnn-dataset)");
+  }
 
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<float> p = model.value().Predict(s.crops_depth_m, s.grasp_depths_m);
+  const std::vector<float> p = model.value().Predict(s.crops_depth_m, s.grasp_depths_m,
+                                                     model.value().takes_clearances()
+                                                         ? std::span<const float>(s.clearances_m)
+                                                         : std::span<const float>());
   const double predict_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::vector<float> logistic(s.size()), majority(s.size());
@@ -351,14 +364,19 @@ int RunGqcnnBench(std::vector<std::string> argv) {
   json result = {{"model", model.value().description()}, {"threads", threads}};
   for (const int n : {1, 250, 1000}) {
     std::vector<float> crops(static_cast<std::size_t>(n) * 1024),
-        depths(static_cast<std::size_t>(n));
+        depths(static_cast<std::size_t>(n)), clearances;
     for (float& v : crops) v = depth(rng);
     for (float& v : depths) v = depth(rng);
-    (void)model.value().Predict(crops, depths);  // warm-up
+    if (model.value().takes_clearances()) {
+      clearances.resize(static_cast<std::size_t>(n) * 3);
+      std::uniform_real_distribution<float> clearance(-0.05f, 0.05f);
+      for (float& v : clearances) v = clearance(rng);
+    }
+    (void)model.value().Predict(crops, depths, clearances);  // warm-up
     std::vector<double> ms;
     for (int r = 0; r < repeats; ++r) {
       const auto t0 = std::chrono::steady_clock::now();
-      (void)model.value().Predict(crops, depths);
+      (void)model.value().Predict(crops, depths, clearances);
       ms.push_back(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     }
@@ -373,7 +391,7 @@ int RunGqcnnBench(std::vector<std::string> argv) {
     models::InitGqcnnWeights(net);
     torch::optim::Adam opt(net->parameters(), torch::optim::AdamOptions(1e-3));
     const torch::Tensor images = torch::randn({batch, 1, 32, 32});
-    const torch::Tensor poses = torch::randn({batch, 1});
+    const torch::Tensor poses = torch::randn({batch, models::GqcnnPoseInputs(c)});
     const torch::Tensor target = torch::randint(0, 2, {batch}, torch::kInt64);
     const int steps = 30;
     std::chrono::steady_clock::time_point t0;
