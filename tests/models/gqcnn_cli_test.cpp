@@ -200,6 +200,34 @@ TEST_F(GqcnnCliTest, FactoredTrainingWithoutGainAndPredictionRows) {
   EXPECT_EQ(predicted, confusion.at("tp").get<int>() + confusion.at("fp").get<int>());
 }
 
+// --clearance-inputs reaches the model file and the card; gqcnn-eval hands the stored
+// clearances to such a model, gqcnn-bench random ones.
+TEST_F(GqcnnCliTest, ClearanceInputsTrainAndEvaluate) {
+  const fs::path model = *root_ / "clearance" / "gqcnn.pt";
+  const CliRun train = Run("gqcnn --data " + Dir("train") + " --out " + model.string() +
+                           " --batch 16 --seed 3 --eval-every 10 --threads 1 --steps 10"
+                           " --clearance-inputs");
+  ASSERT_EQ(train.exit_code, 0) << train.err;
+  const json card = json::parse(Slurp(*root_ / "clearance" / "gqcnn.json"));
+  EXPECT_EQ(
+      card.at("architecture").at("pose_inputs").get<std::string>().rfind("grasp depth; jaw", 0),
+      0u);
+  EXPECT_EQ(card.at("format_version").get<int>(), 3);
+  const CliRun eval = Run("gqcnn-eval --model " + model.string() + " --data " + Dir("test") +
+                          " --resamples 20 --threads 1");
+  ASSERT_EQ(eval.exit_code, 0) << eval.err;
+  const json confusion = json::parse(eval.out).at("gqcnn").at("confusion");
+  int total = 0;
+  for (const char* k : {"tp", "fp", "tn", "fn"}) total += confusion.at(k).get<int>();
+  EXPECT_EQ(total, 8 * 10 * 4);
+  const CliRun bench =
+      Run("gqcnn-bench --model " + model.string() + " --repeats 1 --batch 8 --threads 1");
+  ASSERT_EQ(bench.exit_code, 0) << bench.err;
+  EXPECT_NE(json::parse(bench.out).at("model").get<std::string>().find("clearance inputs"),
+            std::string::npos)
+      << bench.out;
+}
+
 TEST_F(GqcnnCliTest, BadCommandLinesExitTwoNamingTheProblem) {
   const std::string model = (*root_ / "bad" / "m.pt").string();
   struct Case {
