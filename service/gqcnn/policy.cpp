@@ -62,6 +62,7 @@ struct Candidate {
   double surface_depth_m = 0.0;  // highest surface between the contacts
   float quality = 0.0F;
   core::ContactHold contacts = core::ContactHold::kFirm;
+  GripperClearance clearance;  // at `pose`, measured by Reachable
 };
 
 // Firm contacts first (all candidates are firm when the check is off), then the network's
@@ -206,11 +207,15 @@ class Planner {
     return SampleDepth(out) && Reachable(out);
   }
 
-  // Whether the gripper can take the candidate: it reaches the grasp depth, and there
-  // its fingers meet faces that hold, in the image plane (CheckContacts, which sets the
-  // candidate's contacts) and in height (ContactFacesSteep).
+  // Whether the gripper can take the candidate: it reaches the grasp depth (the clearance check
+  // the dataset's records carry, clearance.h, on the inpainted depth and the fitted floor's
+  // heights; the clearance is kept for the quality function), and there its fingers meet faces
+  // that hold, in the image plane (CheckContacts, which sets the candidate's contacts) and in
+  // height (ContactFacesSteep).
   bool Reachable(Candidate* c) const {
-    if (!GripperClears(c->pose)) return false;
+    c->clearance = MeasureClearance(scene_.depth_filled_m, scene_.height_m, c->pose, camera_.fx,
+                                    gripper_, ClearanceRule{}.min_height_m);
+    if (params_.check_clearance && !ClearanceRule{}.Admits(c->clearance, gripper_)) return false;
     if (!params_.check_contacts) return true;
     const double px_per_m = camera_.fx / c->pose.depth_m;
     const core::GripperPx fingers{gripper_.opening_stroke_m * px_per_m,
@@ -224,18 +229,6 @@ class Planner {
            core::ContactFacesSteep(scene_.height_m, c->pose.center_u_px, c->pose.center_v_px,
                                    c->pose.angle_rad, fingers, px_per_m, tip_height_m,
                                    gripper_.friction_coefficient);
-  }
-
-  // Whether the gripper reaches the grasp depth: the clearance check the dataset's records
-  // carry (clearance.h), on the inpainted depth and the fitted floor's heights.
-  bool GripperClears(const GraspImagePose& pose) const {
-    if (!params_.check_clearance) return true;
-    return ClearanceRule{}.Admits(Clearance(pose), gripper_);
-  }
-
-  GripperClearance Clearance(const GraspImagePose& pose) const {
-    return MeasureClearance(scene_.depth_filled_m, scene_.height_m, pose, camera_.fx, gripper_,
-                            ClearanceRule{}.min_height_m);
   }
 
   // Draws the grasp depth below the surface, kept above the floor.
@@ -263,10 +256,9 @@ class Planner {
       const Candidate& c = candidates[first + i];
       CropGrasp(filled, c.pose, crops.data() + i * kCropPixels, crop_px_);
       depths[i] = static_cast<float>(c.pose.depth_m);
-      const GripperClearance clearance = Clearance(c.pose);
-      clearances[i * 3] = static_cast<float>(clearance.jaws_m);
-      clearances[i * 3 + 1] = static_cast<float>(clearance.palm_m);
-      clearances[i * 3 + 2] = static_cast<float>(clearance.floor_m);
+      clearances[i * 3] = static_cast<float>(c.clearance.jaws_m);
+      clearances[i * 3 + 1] = static_cast<float>(c.clearance.palm_m);
+      clearances[i * 3 + 2] = static_cast<float>(c.clearance.floor_m);
     }
     const std::vector<float> scores = quality(crops, depths, clearances);
     if (scores.size() != n) {
