@@ -6,8 +6,9 @@
 ///   gqcnn::PolicyParams params;
 ///   auto plan = gqcnn::PlanGqcnnGrasps(scene, camera, gripper, params,
 ///       [&](std::span<const float> crops, std::span<const float> depths,
-///           std::span<const float> clearances) { return model.Predict(crops, depths, clearances);
-///           });
+///           std::span<const float> clearances) {
+///         return model.Predict(crops, depths, clearances);
+///       });
 ///
 /// Units: metres, pixels of the input image, radians; poses in the camera frame C.
 
