@@ -24,6 +24,9 @@ PACKAGES=(
   libopencv-dev libeigen3-dev nlohmann-json3-dev libtiff-dev libpng-dev zlib1g-dev libyaml-cpp-dev
   cyclonedds-dev cyclonedds-tools libembree-dev libpcl-dev libbullet-dev libtorch-dev libcgal-dev
   libqhull-dev libfcl-dev libglpk-dev
+  # an optimised BLAS for libtorch's fully connected layers: without it Debian's alternatives
+  # give the reference libblas3, and the GQ-CNN's plans take 1.6x as long (docs/gqcnn.md)
+  libopenblas0-openmp
 )
 if [ "$profile" = all ]; then
   PACKAGES+=(
