@@ -29,6 +29,7 @@ core::Result<GqcnnModel> GqcnnModel::Load(const std::filesystem::path& path) {
   auto impl = std::make_unique<Impl>();
   impl->loaded = std::move(loaded.value());
   impl->parameters = CountParameters(*impl->loaded.net);
+  FlushSubnormalParameters(*impl->loaded.net);
   const GqcnnNetConfig& c = impl->loaded.config;
   impl->description =
       "GQ-CNN conv " + std::to_string(c.conv1_1_kernel) + "x" + std::to_string(c.conv1_1_kernel) +

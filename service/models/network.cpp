@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -116,6 +117,20 @@ std::int64_t CountParameters(const torch::nn::Module& module) {
   std::int64_t n = 0;
   for (const auto& p : module.parameters()) n += p.numel();
   return n;
+}
+
+std::int64_t FlushSubnormalParameters(torch::nn::Module& module) {
+  torch::NoGradGuard no_grad;
+  std::int64_t flushed = 0;
+  const auto flush = [&flushed](torch::Tensor t) {
+    if (t.scalar_type() != torch::kFloat32) return;
+    const torch::Tensor subnormal = (t.abs() < std::numeric_limits<float>::min()) & (t != 0.0F);
+    flushed += subnormal.sum().item<std::int64_t>();
+    t.masked_fill_(subnormal, 0.0F);
+  };
+  for (const torch::Tensor& p : module.parameters()) flush(p);
+  for (const torch::Tensor& b : module.buffers()) flush(b);
+  return flushed;
 }
 
 }  // namespace softgrasp::models

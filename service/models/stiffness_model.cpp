@@ -53,6 +53,7 @@ core::Result<StiffnessModel> StiffnessModel::Load(const std::filesystem::path& p
   if (auto mismatch = HeightRangeMismatch(path, impl->loaded.height_range_m)) return *mismatch;
   const NetworkConfig& c = impl->loaded.config;
   impl->parameters = CountParameters(*impl->loaded.generator);
+  FlushSubnormalParameters(*impl->loaded.generator);
   impl->description = "pix2stiffness U-Net " + std::to_string(c.input_size) + "x" +
                       std::to_string(c.input_size) + ", " + std::to_string(c.levels) +
                       " levels, base " + std::to_string(c.base_channels) + " channels, " +

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -13,6 +14,7 @@
 #include "service/models/gqcnn_model.h"
 #include "service/models/gqcnn_network.h"
 #include "service/models/gqcnn_trainer.h"
+#include "service/models/network.h"
 #include "service/models/segmentation_network.h"
 #include "service/models/stiffness_model.h"
 #include "service/models/trainer.h"
@@ -105,6 +107,72 @@ TEST(GqcnnModelTest, SavedFileGivesTheSameOutputsAndCard) {
   ASSERT_TRUE(raw.ok());
   EXPECT_EQ(raw.value().normalisation, kNorm);
   EXPECT_EQ(raw.value().config, GqcnnNetConfig{});
+}
+
+// Parameters below the smallest normal float (weight decay leaves a fifth of the shipped fc3
+// there; CPUs compute with them many times slower) are zeroed, exactly those, in parameters and
+// buffers; NaN and the smallest normal floats are kept.
+TEST(GqcnnModelTest, SubnormalParametersAreFlushedToZero) {
+  torch::nn::Linear linear(4, 2);
+  torch::nn::BatchNorm1d norm(3);
+  constexpr float kMinNormal = std::numeric_limits<float>::min();
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  {
+    torch::NoGradGuard no_grad;
+    linear->weight.copy_(torch::tensor({1e-40f, -1e-40f, kMinNormal, -kMinNormal, 0.0f, 1.0f,
+                                        std::numeric_limits<float>::denorm_min(), kNaN})
+                             .view({2, 4}));
+    linear->bias.copy_(torch::tensor({-3e-39f, 0.5f}));
+    norm->running_var.copy_(torch::tensor({1e-39f, 1.0f, 2.0f}));
+  }
+  EXPECT_EQ(FlushSubnormalParameters(*linear), 4);
+  EXPECT_EQ(FlushSubnormalParameters(*norm), 1);
+  const torch::Tensor w = linear->weight.flatten();
+  for (const int i : {0, 1, 4, 6}) EXPECT_EQ(w[i].item<float>(), 0.0f) << i;
+  EXPECT_EQ(w[2].item<float>(), kMinNormal);
+  EXPECT_EQ(w[3].item<float>(), -kMinNormal);
+  EXPECT_EQ(w[5].item<float>(), 1.0f);
+  EXPECT_TRUE(std::isnan(w[7].item<float>()));
+  EXPECT_EQ(linear->bias[0].item<float>(), 0.0f);
+  EXPECT_EQ(norm->running_var[0].item<float>(), 0.0f);
+  EXPECT_EQ(FlushSubnormalParameters(*linear), 0);  // nothing left
+}
+
+// A model file whose fc3 holds subnormal weights scores as the network does in full precision:
+// the load zeroes them (for speed) without changing a score.
+TEST(GqcnnModelTest, AModelWithSubnormalWeightsScoresAsBefore) {
+  SetTorchThreads(1);
+  testing::TempDir dir("gqcnn-subnormal");
+  GqcnnNet net = MakeNet(6);
+  {
+    torch::NoGradGuard no_grad;
+    torch::Tensor w = net->named_parameters()["fc3.weight"];
+    torch::Tensor every_third = torch::zeros_like(w, torch::kBool).flatten();
+    every_third.slice(0, 0, every_third.numel(), 3).fill_(true);
+    w.masked_fill_(every_third.view_as(w), 2e-39f);
+  }
+  const fs::path path = dir.path() / "m.pt";
+  SaveGqcnnNet(path, net, GqcnnNetConfig{}, kNorm, json::object());
+  std::vector<float> crops, depths;
+  RandomInputs(40, 11, &crops, &depths);
+  torch::Tensor images, poses, expected;
+  NormaliseGqcnnInputs(crops.data(), depths.data(), nullptr, 40, GqcnnNetConfig{}, kNorm, &images,
+                       &poses);
+  {
+    torch::NoGradGuard no_grad;
+    expected = torch::softmax(net->forward(images, poses), 1).select(1, 1).contiguous();
+  }
+  auto model = GqcnnModel::Load(path);
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  const std::vector<float> p = model.value().Predict(crops, depths);
+  ASSERT_EQ(p.size(), 40u);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    EXPECT_NEAR(p[i], expected[static_cast<std::int64_t>(i)].item<float>(), 1e-6f) << i;
+  }
+  // The file keeps them: the load flushed a copy.
+  auto raw = LoadGqcnnNet(path);
+  ASSERT_TRUE(raw.ok());
+  EXPECT_GT(FlushSubnormalParameters(*raw.value().net), 40000);
 }
 
 // A factored network's P(succeeds) is sigmoid(a) * sigmoid(b) of its two outputs, its loss the
