@@ -123,14 +123,17 @@ class Planner {
     cv::Sobel(smooth, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
     cv::Sobel(smooth, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
     std::vector<EdgePixel> edges;
+    // Squared magnitudes are compared: this runs on every pixel, and std::hypot is slow.
     const double threshold = params_.depth_gradient_threshold_m;
+    const double threshold_squared = threshold * threshold;
     for (int v = 1; v + 1 < smooth.rows; ++v) {
       for (int u = 1; u + 1 < smooth.cols; ++u) {
         const double dx = gx(v, u);
         const double dy = gy(v, u);
-        const double magnitude = std::hypot(dx, dy);
-        if (!(magnitude > threshold)) continue;
+        const double squared = dx * dx + dy * dy;
+        if (!(squared > threshold_squared)) continue;
         if (!ContactAllowed(u, v)) continue;
+        const double magnitude = std::sqrt(squared);
         edges.push_back({u, v, dx / magnitude, dy / magnitude});
       }
     }
@@ -152,8 +155,9 @@ class Planner {
       for (std::size_t j = i + 1; j < edges.size(); ++j) {
         const double du = edges[j].u - edges[i].u;
         const double dv = edges[j].v - edges[i].v;
-        const double length_px = std::hypot(du, dv);
-        if (length_px < 2.0) continue;
+        const double squared_px = du * du + dv * dv;  // integer pixel offsets: exact
+        if (squared_px < 4.0) continue;
+        const double length_px = std::sqrt(squared_px);
         const double ax = du / length_px;
         const double ay = dv / length_px;
         // The jaw at i pushes along +axis into the object, i.e. against i's outward gradient;

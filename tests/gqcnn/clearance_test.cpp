@@ -143,6 +143,46 @@ TEST(GqcnnClearanceTest, EveryPixelABoxTouchesCounts) {
       kNothingUnderGripperM);
 }
 
+// The pixels each box covers, whatever the angle and the sub-pixel centre: each pixel around
+// the grasp is raised alone and must count exactly when its centre lies in the box grown by half
+// a pixel (at 0.68 m: stroke 51.47 px, fingers 8.24 px thick and 15.44 px wide).
+TEST(GqcnnClearanceTest, ABoxCoversTheSamePixelsAtEveryAngle) {
+  const double depth = 0.68, m_per_px = depth / kFx, half_px = 0.5 * m_per_px;
+  const core::Gripper gripper;
+  const double inner = 0.5 * gripper.opening_stroke_m - half_px;
+  const double outer = 0.5 * gripper.opening_stroke_m + gripper.finger_thickness_m + half_px;
+  const double half_width = 0.5 * gripper.finger_width_m + half_px;
+  Scene scene;
+  int jaw_pixels = 0;
+  for (const double degrees : {0.0, 7.5, 30.0, 45.0, 60.0, 90.0, 123.0, 180.0, 271.0}) {
+    GraspImagePose pose = Pose(depth, degrees * std::numbers::pi / 180.0);
+    pose.center_u_px = 100.3;
+    pose.center_v_px = 99.6;
+    const double ca = std::cos(pose.angle_rad), sa = std::sin(pose.angle_rad);
+    for (int v = 55; v <= 145; ++v) {
+      for (int u = 55; u <= 145; ++u) {
+        const double du = u - pose.center_u_px, dv = v - pose.center_v_px;
+        const double along = std::fabs(du * ca + dv * sa) * m_per_px;
+        const double across = std::fabs(dv * ca - du * sa) * m_per_px;
+        const bool in_box = along <= outer && across <= half_width;
+        const bool under_jaw = in_box && along >= inner;
+        scene.Block(u, u + 1, v, v + 1, 0.03);
+        const GripperClearance c =
+            MeasureClearance(scene.depth_m, scene.height_m, pose, kFx, gripper, 0.008);
+        scene.Block(u, u + 1, v, v + 1, 0.0);
+        ASSERT_EQ(c.palm_m != kNothingUnderGripperM, in_box)
+            << degrees << " deg, " << u << ", " << v;
+        ASSERT_EQ(c.jaws_m != kNothingUnderGripperM, under_jaw)
+            << degrees << " deg, " << u << ", " << v;
+        jaw_pixels += under_jaw ? 1 : 0;
+      }
+    }
+  }
+  // Two 9 x 16 px fingers per angle, give or take the pixels their edges cut.
+  EXPECT_GT(jaw_pixels, 9 * 200);
+  EXPECT_LT(jaw_pixels, 9 * 400);
+}
+
 TEST(GqcnnClearanceTest, TheFloorMissingReadingsAndPixelsOutsideTheImageDoNotCount) {
   Scene scene;
   // Low bumps (5 mm, under the 8 mm floor margin) and missing readings under both fingers.
