@@ -215,12 +215,17 @@ class Planner {
   // the dataset's records carry, clearance.h, on the inpainted depth and the fitted floor's
   // heights; the clearance is kept for the quality function), and there its fingers meet faces
   // that hold, in the image plane (CheckContacts, which sets the candidate's contacts) and in
-  // height (ContactFacesSteep).
+  // height (ContactFacesSteep). The contacts are checked first: they reject more candidates than
+  // the clearance, and faster (the clearance reads every pixel under the fingers and the gap).
   bool Reachable(Candidate* c) const {
+    if (params_.check_contacts && !ContactsHold(c)) return false;
     c->clearance = MeasureClearance(scene_.depth_filled_m, scene_.height_m, c->pose, camera_.fx,
                                     gripper_, ClearanceRule{}.min_height_m);
-    if (params_.check_clearance && !ClearanceRule{}.Admits(c->clearance, gripper_)) return false;
-    if (!params_.check_contacts) return true;
+    return !params_.check_clearance || ClearanceRule{}.Admits(c->clearance, gripper_);
+  }
+
+  // The in-plane and the height checks of the fingers' contacts; sets the candidate's contacts.
+  bool ContactsHold(Candidate* c) const {
     const double px_per_m = camera_.fx / c->pose.depth_m;
     const core::GripperPx fingers{gripper_.opening_stroke_m * px_per_m,
                                   gripper_.finger_width_m * px_per_m,
