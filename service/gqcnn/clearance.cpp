@@ -48,7 +48,7 @@ GripperClearance MeasureClearance(const cv::Mat1f& depth_m, const cv::Mat1f& hei
     const float* height_row = height_m[v];
     const double dv = v - pose.center_v_px;
     // Only the columns where this row crosses the rotated box, a pixel wider on each side (the
-    // exact test below decides): a box at 45 degrees covers a quarter of its bounding square.
+    // exact test below decides): the box covers about a fifth of the square around its reach.
     double lo = -reach_px;
     double hi = reach_px;
     ClipToSlab(ca, dv * sa, outer_px, &lo, &hi);

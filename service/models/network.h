@@ -61,9 +61,9 @@ void InitWeights(torch::nn::Module& module);
 std::int64_t CountParameters(const torch::nn::Module& module);
 
 /// Sets to zero every float parameter (and buffer) whose magnitude is below the smallest normal
-/// float, 1.18e-38, and returns how many there were. Weight decay leaves dead weights there (a
-/// fifth of the shipped GQ-CNN's fc3), and x86 CPUs compute with such subnormal numbers many
-/// times slower: flushed, the GQ-CNN scores 250 crops about 3x faster. No output changes by more
+/// float, 1.18e-38, and returns how many there were. Training left a fifth of the shipped
+/// GQ-CNN's fc3 weights there, and x86 CPUs compute with such subnormal numbers many times
+/// slower: flushed, that network scores 250 crops about 3x faster. No output changes by more
 /// than the flushed values times the activations, far below float precision. For inference
 /// models only: a training run resumed from a flushed checkpoint would differ from one that was
 /// never interrupted.

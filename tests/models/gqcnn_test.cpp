@@ -109,8 +109,8 @@ TEST(GqcnnModelTest, SavedFileGivesTheSameOutputsAndCard) {
   EXPECT_EQ(raw.value().config, GqcnnNetConfig{});
 }
 
-// Parameters below the smallest normal float (weight decay leaves a fifth of the shipped fc3
-// there; CPUs compute with them many times slower) are zeroed, exactly those, in parameters and
+// Parameters below the smallest normal float (training left a fifth of the shipped fc3 there;
+// CPUs compute with them many times slower) are zeroed, exactly those, in parameters and
 // buffers; NaN and the smallest normal floats are kept.
 TEST(GqcnnModelTest, SubnormalParametersAreFlushedToZero) {
   torch::nn::Linear linear(4, 2);
