@@ -49,6 +49,13 @@ GqcnnNet MakeNet(std::uint64_t seed) {
 
 const GqcnnNormalisation kNorm{0.65, 0.05, 0.64, 0.04};
 
+/// P(succeeds) of a softmax-output network straight from libtorch, for comparison with Predict.
+torch::Tensor SoftmaxSuccess(GqcnnNet& net, const torch::Tensor& images,
+                             const torch::Tensor& poses) {
+  torch::NoGradGuard no_grad;
+  return torch::softmax(net->forward(images, poses), 1).select(1, 1).contiguous();
+}
+
 /// Writes the model file `to`: the kind marker, normalisation and card of the model file `from`
 /// with the config tensor `config`, and the weights of `net` when given.
 void RewriteConfig(const fs::path& from, const fs::path& to, const torch::Tensor& config,
@@ -83,11 +90,7 @@ TEST(GqcnnModelTest, SavedFileGivesTheSameOutputsAndCard) {
   torch::Tensor images, poses;
   NormaliseGqcnnInputs(crops.data(), depths.data(), nullptr, 300, GqcnnNetConfig{}, kNorm, &images,
                        &poses);
-  torch::Tensor expected;
-  {
-    torch::NoGradGuard no_grad;
-    expected = torch::softmax(net->forward(images, poses), 1).select(1, 1).contiguous();
-  }
+  const torch::Tensor expected = SoftmaxSuccess(net, images, poses);
   auto model = GqcnnModel::Load(path);
   ASSERT_TRUE(model.ok()) << model.error().message;
   const std::vector<float> p = model.value().Predict(crops, depths);
@@ -155,13 +158,10 @@ TEST(GqcnnModelTest, AModelWithSubnormalWeightsScoresAsBefore) {
   SaveGqcnnNet(path, net, GqcnnNetConfig{}, kNorm, json::object());
   std::vector<float> crops, depths;
   RandomInputs(40, 11, &crops, &depths);
-  torch::Tensor images, poses, expected;
+  torch::Tensor images, poses;
   NormaliseGqcnnInputs(crops.data(), depths.data(), nullptr, 40, GqcnnNetConfig{}, kNorm, &images,
                        &poses);
-  {
-    torch::NoGradGuard no_grad;
-    expected = torch::softmax(net->forward(images, poses), 1).select(1, 1).contiguous();
-  }
+  const torch::Tensor expected = SoftmaxSuccess(net, images, poses);
   auto model = GqcnnModel::Load(path);
   ASSERT_TRUE(model.ok()) << model.error().message;
   const std::vector<float> p = model.value().Predict(crops, depths);
@@ -275,7 +275,7 @@ TEST(GqcnnModelTest, ClearanceInputsReachThePoseStream) {
   RandomInputs(4, 2, &crops, &depths);
   const std::vector<float> clear = {0.02F, 0.0F,   1.0F,  0.01F, -0.03F, 0.005F,
                                     0.0F,  -0.06F, 0.02F, 1.0F,  1.0F,   1.0F};
-  torch::Tensor images, poses, expected;
+  torch::Tensor images, poses;
   NormaliseGqcnnInputs(crops.data(), depths.data(), clear.data(), 4, config, kNorm, &images,
                        &poses);
   ASSERT_EQ(poses.size(1), 4);
@@ -283,10 +283,7 @@ TEST(GqcnnModelTest, ClearanceInputsReachThePoseStream) {
   EXPECT_FLOAT_EQ(poses[1][1].item<float>(), 0.5F);
   EXPECT_FLOAT_EQ(poses[1][2].item<float>(), -1.5F);
   EXPECT_FLOAT_EQ(poses[1][3].item<float>(), 0.25F);
-  {
-    torch::NoGradGuard no_grad;
-    expected = torch::softmax(net->forward(images, poses), 1).select(1, 1).contiguous();
-  }
+  const torch::Tensor expected = SoftmaxSuccess(net, images, poses);
   const std::vector<float> p = model.value().Predict(crops, depths, clear);
   ASSERT_EQ(p.size(), 4u);
   for (std::size_t i = 0; i < 4; ++i) {
