@@ -5,6 +5,8 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -198,6 +200,48 @@ TEST_F(GqcnnCliTest, FactoredTrainingWithoutGainAndPredictionRows) {
   EXPECT_EQ(predicted_and_admitted, gated.at("tp").get<int>() + gated.at("fp").get<int>());
   EXPECT_EQ(positives, confusion.at("tp").get<int>() + confusion.at("fn").get<int>());
   EXPECT_EQ(predicted, confusion.at("tp").get<int>() + confusion.at("fp").get<int>());
+
+  // --calibrate-on: the threshold is the grid value where the network's balanced accuracy on
+  // the calibration objects (here the test set, whose rows were just written) is highest, and
+  // the evaluation of other objects is the one at that threshold.
+  double best_t = 0.5, best_ba = -1;
+  for (int k = 1; k <= 99; ++k) {
+    const double t = k / 100.0;
+    double tp = 0, fn = 0, tn = 0, fp = 0;
+    std::istringstream again(Slurp(rows));
+    std::getline(again, line);
+    while (std::getline(again, line)) {
+      std::vector<std::string> cells;
+      std::istringstream row(line);
+      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+      const bool y = cells[3] == "1", yes = std::stod(cells[4]) >= t;
+      tp += y && yes;
+      fn += y && !yes;
+      fp += !y && yes;
+      tn += !y && !yes;
+    }
+    const double ba = 0.5 * (tp / (tp + fn) + tn / (tn + fp));
+    if (ba > best_ba + 1e-12 ||
+        (std::abs(ba - best_ba) <= 1e-12 && std::abs(t - 0.5) < std::abs(best_t - 0.5))) {
+      best_t = t;
+      best_ba = ba;
+    }
+  }
+  const CliRun calibrated = Run("gqcnn-eval --model " + model.string() + " --data " + Dir("train") +
+                                " --calibrate-on " + Dir("test") + " --resamples 20 --threads 1");
+  ASSERT_EQ(calibrated.exit_code, 0) << calibrated.err;
+  const json c = json::parse(calibrated.out);
+  EXPECT_DOUBLE_EQ(c.at("threshold").get<double>(), best_t);
+  EXPECT_NEAR(c.at("threshold_calibration").at("balanced_accuracy").get<double>(), best_ba, 1e-9);
+  EXPECT_EQ(c.at("threshold_calibration").at("grasps").get<int>(), 8 * 10 * 4);
+  EXPECT_EQ(c.at("threshold_calibration").at("data").at(0), Dir("test"));
+  char fixed[32];
+  std::snprintf(fixed, sizeof fixed, "%.2f", best_t);
+  const CliRun at_t = Run("gqcnn-eval --model " + model.string() + " --data " + Dir("train") +
+                          " --threshold " + fixed + " --resamples 20 --threads 1");
+  ASSERT_EQ(at_t.exit_code, 0) << at_t.err;
+  EXPECT_EQ(c.at("gqcnn").at("confusion"), json::parse(at_t.out).at("gqcnn").at("confusion"));
+  EXPECT_TRUE(json::parse(at_t.out).at("threshold_calibration").is_null());
 }
 
 // --clearance-inputs reaches the model file and the card; gqcnn-eval hands the stored
@@ -242,6 +286,11 @@ TEST_F(GqcnnCliTest, BadCommandLinesExitTwoNamingTheProblem) {
       {"gqcnn --data " + Dir("nowhere") + " --out " + model + " --steps 5", "index"},
       {"gqcnn --data " + Dir("train") + " --out " + model + " --bogus", "unknown argument"},
       {"gqcnn-eval --model " + model + " --data " + Dir("test"), "no GQ-CNN model file"},
+      {"gqcnn-eval --model " + model + " --data " + Dir("test") +
+           " --threshold 0.3 --calibrate-on " + Dir("train"),
+       "not both"},
+      {"gqcnn-eval --model " + model + " --data " + Dir("test") + " --calibrate-on " + Dir("test"),
+       "calibrate on other objects"},
       {"gqcnn-eval --model " + Dir("train") + "/index.json --data " + Dir("test"),
        "cannot read GQ-CNN model"},
   };

@@ -81,6 +81,36 @@ TEST(GqcnnMetricsTest, TiesAtTheTopScoreTheTiedGraspsPositiveRate) {
   EXPECT_DOUBLE_EQ(t.top1_precision, 0.5 * (1.0 / 3.0 + 0.0));
 }
 
+// The hand-made set's balanced accuracy by threshold: 0.5 up to 0.1, 2/3 on (0.2, 0.3], 3/4 on
+// (0.3, 0.4] (every positive, the three lowest negatives), less above. Of the grid values
+// 0.31 ... 0.40 that reach 3/4, the nearest 0.5 is 0.40 (0.4f >= 0.40 still holds).
+TEST(GqcnnMetricsTest, CalibratedThresholdMaximisesBalancedAccuracy) {
+  const HandMade h;
+  const ThresholdChoice c = ChooseBalancedAccuracyThreshold(h.labels, h.p);
+  EXPECT_DOUBLE_EQ(c.threshold, 0.40);
+  EXPECT_DOUBLE_EQ(c.balanced_accuracy, 0.75);
+  EXPECT_DOUBLE_EQ(ComputeGqcnnMetrics(h.Scored(), c.threshold).balanced_accuracy, 0.75);
+  // Ties: perfectly separated at any threshold in (0.2, 0.8] -> the nearest 0.5 is 0.5 itself;
+  // separated on (0.6, 0.7] only -> 0.61 (the lowest of those nearest 0.5).
+  const std::vector<std::uint8_t> y{1, 0};
+  EXPECT_DOUBLE_EQ(ChooseBalancedAccuracyThreshold(y, std::vector<float>{0.8f, 0.2f}).threshold,
+                   0.5);
+  EXPECT_DOUBLE_EQ(ChooseBalancedAccuracyThreshold(y, std::vector<float>{0.7f, 0.6f}).threshold,
+                   0.61);
+  // Probabilities off the grid: 0 and NaN never succeed, 1 always does.
+  const ThresholdChoice ends = ChooseBalancedAccuracyThreshold(
+      std::vector<std::uint8_t>{1, 0, 0}, std::vector<float>{1.0f, 0.0f, std::nanf("")});
+  EXPECT_DOUBLE_EQ(ends.balanced_accuracy, 1.0);
+  EXPECT_DOUBLE_EQ(ends.threshold, 0.5);
+  // One class only, or spans of different sizes: refused.
+  EXPECT_THROW(ChooseBalancedAccuracyThreshold(std::vector<std::uint8_t>{1, 1},
+                                               std::vector<float>{0.2f, 0.9f}),
+               std::invalid_argument);
+  EXPECT_THROW(
+      ChooseBalancedAccuracyThreshold(std::vector<std::uint8_t>{1}, std::vector<float>{0.2f, 0.9f}),
+      std::invalid_argument);
+}
+
 TEST(GqcnnMetricsTest, UndefinedFiguresAreNaNAndSizesMustAgree) {
   std::vector<std::uint8_t> labels{0, 0};
   std::vector<float> p{0.1f, 0.2f};

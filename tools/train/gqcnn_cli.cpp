@@ -44,13 +44,15 @@ const char* const kGqcnnUsage =
     "  planner admits (the ones strategy=gqcnn lets the network score).\n"
     "       softgrasp-train gqcnn-eval --model MODEL.pt --data DIR [--data DIR2 ...]\n"
     "                                  [--json OUT] [--threshold P] [--resamples N] [--threads T]\n"
-    "                                  [--predictions OUT.csv]\n"
+    "                                  [--predictions OUT.csv] [--calibrate-on DIR ...]\n"
     "  Accuracy, balanced accuracy, precision, recall and precision of the top-ranked grasp per\n"
     "  image, with 95 % intervals resampling objects, for the model and two baselines (majority\n"
     "  class; logistic regression on two hand features fitted on the model's training split).\n"
     "  On datasets with gripper clearances, also as strategy=gqcnn classifies: a grasp is\n"
     "  positive when the clearance check admits it and P >= threshold (gqcnn_with_clearance),\n"
     "  against the check alone.\n"
+    "  --calibrate-on chooses the threshold (instead of --threshold) where the network's balanced\n"
+    "  accuracy is highest on other labelled objects, e.g. real meshes apart from --data.\n"
     "  --predictions writes one row per grasp (record, object, image, label, both probabilities)\n"
     "  in the order the records are read (shard by shard).\n"
     "       softgrasp-train gqcnn-bench [--model MODEL.pt] [--conv1-channels C]\n"
@@ -197,11 +199,24 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
   const std::vector<std::string> data = args.All("--data");
   args.Text("--json", &json_out);
   args.Text("--predictions", &predictions_out);
-  args.Number("--threshold", cli::Bounds::Closed(0, 1), &threshold);
+  const bool has_threshold = args.Number("--threshold", cli::Bounds::Closed(0, 1), &threshold);
+  const std::vector<std::string> calibration = args.All("--calibrate-on");
   args.Int("--resamples", 10, 1000000, &resamples);
   args.Int("--seed", 0, cli::kNoLimit, &seed);
   args.Int("--threads", 1, 256, &threads);
   if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
+  if (has_threshold && !calibration.empty()) {
+    args.Fail("give --threshold or --calibrate-on, not both", "--calibrate-on");
+  }
+  for (const std::string& c : calibration) {
+    std::error_code ec;
+    for (const std::string& d : data) {
+      if (fs::equivalent(fs::path(c), fs::path(d), ec)) {
+        args.Fail("--calibrate-on " + c + " is also --data: calibrate on other objects",
+                  "--calibrate-on");
+      }
+    }
+  }
   if (const auto error = args.Finish()) return Fail(error->message);
 
   models::SetTorchThreads(threads);
@@ -210,20 +225,46 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
   const json& card = model.value().Card();
   auto baseline = models::LogisticBaseline::FromJson(card.value("baseline", json::object()));
   if (!baseline.ok()) return FailError(baseline.error());
+  auto predict = [&](const models::GqcnnSet& set) {
+    return model.value().Predict(set.crops_depth_m, set.grasp_depths_m,
+                                 model.value().takes_clearances()
+                                     ? std::span<const float>(set.clearances_m)
+                                     : std::span<const float>());
+  };
+  const bool takes_clearances = model.value().takes_clearances();
+  constexpr const char* kPredateClearances =
+      "the model takes gripper clearances, and these datasets predate them (regenerate them "
+      "with softgrasp-sim gqcnn-dataset)";
+  json calibration_json;
+  if (!calibration.empty()) {
+    // The threshold is chosen on other labelled objects before the evaluation data is read.
+    auto cal = Load(calibration);
+    if (!cal.ok()) return FailError(cal.error());
+    if (takes_clearances && !cal.value().clearances_measured) return Fail(kPredateClearances);
+    const std::vector<float> cal_p = predict(cal.value());
+    ThresholdChoice choice;
+    try {
+      choice = ChooseBalancedAccuracyThreshold(cal.value().labels, cal_p);
+    } catch (const std::invalid_argument&) {
+      return Fail("--calibrate-on data needs grasps that succeed and grasps that fail");
+    }
+    threshold = choice.threshold;
+    calibration_json = {
+        {"data", calibration},
+        {"grasps", cal.value().size()},
+        {"objects", cal.value().object_names.size()},
+        {"rule",
+         "the threshold among 0.01, 0.02, ..., 0.99 with the highest balanced accuracy of the "
+         "network alone on the calibration data (of equal ones, the nearest 0.5)"},
+        {"balanced_accuracy", choice.balanced_accuracy}};
+  }
   auto set = Load(data);
   if (!set.ok()) return FailError(set.error());
   const models::GqcnnSet& s = set.value();
-  if (model.value().takes_clearances() && !s.clearances_measured) {
-    return Fail(
-        "the model takes gripper clearances, and these datasets predate them (regenerate "
-        "them with softgrasp-sim gqcnn-dataset)");
-  }
+  if (takes_clearances && !s.clearances_measured) return Fail(kPredateClearances);
 
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<float> p = model.value().Predict(s.crops_depth_m, s.grasp_depths_m,
-                                                     model.value().takes_clearances()
-                                                         ? std::span<const float>(s.clearances_m)
-                                                         : std::span<const float>());
+  const std::vector<float> p = predict(s);
   const double predict_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::vector<float> logistic(s.size()), majority(s.size());
@@ -267,6 +308,7 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
       {"trained_on", train_dirs},
       {"data", data},
       {"threshold", threshold},
+      {"threshold_calibration", calibration_json},
       {"bootstrap",
        {{"unit", "object"}, {"resamples", resamples}, {"seed", seed}, {"level", 0.95}}},
       {"predict_seconds", predict_s},

@@ -1,5 +1,6 @@
 #include "tools/train/gqcnn_metrics.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <stdexcept>
@@ -80,6 +81,52 @@ GqcnnMetrics ComputeGqcnnMetrics(const GqcnnScored& s, double threshold,
   m.grasps = static_cast<std::int64_t>(n);
   if (per_object) *per_object = std::move(counts);
   return m;
+}
+
+ThresholdChoice ChooseBalancedAccuracyThreshold(std::span<const std::uint8_t> labels,
+                                                std::span<const float> probabilities) {
+  if (labels.size() != probabilities.size()) {
+    throw std::invalid_argument("ChooseBalancedAccuracyThreshold: spans of different sizes");
+  }
+  constexpr int kSteps = 100;  // thresholds k / kSteps, k = 1 .. kSteps - 1
+  // Per grid cell, how many positives and negatives have a probability that clears exactly the
+  // thresholds up to it: cell k counts p in [k / kSteps, (k + 1) / kSteps), with the same
+  // comparison as ComputeGqcnnMetrics (float p against the double threshold).
+  std::vector<double> positives(kSteps, 0.0), negatives(kSteps, 0.0);
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    int cleared = 0;  // the highest k with p >= k / kSteps (0: none)
+    const double p = probabilities[i];
+    if (!(p >= 1.0 / kSteps)) {
+      cleared = 0;  // below the grid, or NaN: never "succeeds"
+    } else {
+      cleared = std::min(kSteps - 1, static_cast<int>(std::floor(p * kSteps)));
+      while (cleared < kSteps - 1 && p >= static_cast<double>(cleared + 1) / kSteps) ++cleared;
+      while (cleared > 0 && !(p >= static_cast<double>(cleared) / kSteps)) --cleared;
+    }
+    (labels[i] != 0 ? positives : negatives)[static_cast<std::size_t>(cleared)] += 1;
+  }
+  double total_positive = 0, total_negative = 0;
+  for (int k = 0; k < kSteps; ++k) {
+    total_positive += positives[static_cast<std::size_t>(k)];
+    total_negative += negatives[static_cast<std::size_t>(k)];
+  }
+  if (total_positive == 0 || total_negative == 0) {
+    throw std::invalid_argument(
+        "ChooseBalancedAccuracyThreshold: the labels need both successes and failures");
+  }
+  // Walk the thresholds upwards: at k, the grasps of cells 0 .. k-1 are predicted to fail.
+  ThresholdChoice best{0.5, -1.0};
+  double below_positive = 0, below_negative = 0;
+  for (int k = 1; k < kSteps; ++k) {
+    below_positive += positives[static_cast<std::size_t>(k - 1)];
+    below_negative += negatives[static_cast<std::size_t>(k - 1)];
+    const double t = static_cast<double>(k) / kSteps;
+    const double ba = 0.5 * ((total_positive - below_positive) / total_positive +
+                             below_negative / total_negative);
+    const bool nearer = std::abs(t - 0.5) < std::abs(best.threshold - 0.5);
+    if (ba > best.balanced_accuracy || (ba == best.balanced_accuracy && nearer)) best = {t, ba};
+  }
+  return best;
 }
 
 GqcnnMetrics MetricsOfSample(const std::vector<GqcnnObjectCounts>& per_object,

@@ -46,6 +46,18 @@ struct GqcnnObjectCounts {
 GqcnnMetrics ComputeGqcnnMetrics(const GqcnnScored& scored, double threshold,
                                  std::vector<GqcnnObjectCounts>* per_object = nullptr);
 
+/// A decision threshold chosen on labelled grasps of another kind than the network was trained
+/// on (docs/gqcnn.md, "A decision threshold calibrated on real meshes").
+struct ThresholdChoice {
+  double threshold = 0.5;
+  double balanced_accuracy = 0;  ///< on the grasps it was chosen on
+};
+/// The threshold of highest balanced accuracy among 0.01, 0.02, ..., 0.99 (p >= threshold is
+/// "succeeds", as in ComputeGqcnnMetrics); of equal ones, the nearest 0.5, then the lower.
+/// @throws std::invalid_argument when the spans differ in size or the labels lack a class.
+ThresholdChoice ChooseBalancedAccuracyThreshold(std::span<const std::uint8_t> labels,
+                                                std::span<const float> probabilities);
+
 /// Metrics of the objects in `sample` (indices into per_object, with repetition).
 GqcnnMetrics MetricsOfSample(const std::vector<GqcnnObjectCounts>& per_object,
                              std::span<const int> sample);
