@@ -398,6 +398,7 @@ core::Result<GqcnnSet> LoadGqcnnSet(const std::vector<std::filesystem::path>& di
     const auto object_base = static_cast<std::uint32_t>(set.object_names.size());
     for (const auto& object : index.objects) {
       set.object_names.push_back(dirs[d].filename().string() + ":" + object.name);
+      set.object_sources.push_back(static_cast<std::uint32_t>(d));
     }
     std::map<std::uint32_t, std::uint32_t> image_keys;
     const auto image_base = static_cast<std::uint32_t>(set.images());

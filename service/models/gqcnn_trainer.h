@@ -40,10 +40,11 @@ struct GqcnnSet {
   std::vector<float> clearances_m;
   /// Every record carries its clearances (false when a dataset predates them).
   bool clearances_measured = true;
-  std::vector<std::uint32_t> object_keys;  ///< into object_names
-  std::vector<std::uint32_t> image_keys;   ///< dense, per (dataset, image_index)
-  std::vector<std::string> object_names;   ///< "DIR:name"
-  std::vector<std::string> sources;        ///< the dataset directories
+  std::vector<std::uint32_t> object_keys;     ///< into object_names
+  std::vector<std::uint32_t> image_keys;      ///< dense, per (dataset, image_index)
+  std::vector<std::string> object_names;      ///< "DIR:name"
+  std::vector<std::string> sources;           ///< the dataset directories
+  std::vector<std::uint32_t> object_sources;  ///< per object: its directory, into sources
   std::uint64_t positives = 0;
   std::size_t size() const { return labels.size(); }
   std::size_t images() const;

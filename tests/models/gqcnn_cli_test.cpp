@@ -231,17 +231,52 @@ TEST_F(GqcnnCliTest, FactoredTrainingWithoutGainAndPredictionRows) {
                                 " --calibrate-on " + Dir("test") + " --resamples 20 --threads 1");
   ASSERT_EQ(calibrated.exit_code, 0) << calibrated.err;
   const json c = json::parse(calibrated.out);
-  EXPECT_DOUBLE_EQ(c.at("threshold").get<double>(), best_t);
-  EXPECT_NEAR(c.at("threshold_calibration").at("balanced_accuracy").get<double>(), best_ba, 1e-9);
-  EXPECT_EQ(c.at("threshold_calibration").at("grasps").get<int>(), 8 * 10 * 4);
-  EXPECT_EQ(c.at("threshold_calibration").at("data").at(0), Dir("test"));
+  EXPECT_DOUBLE_EQ(c.at("gqcnn").at("threshold").get<double>(), best_t);
+  EXPECT_NEAR(c.at("gqcnn").at("calibration_balanced_accuracy").get<double>(), best_ba, 1e-9);
+  EXPECT_EQ(c.at("threshold").at("chosen_on_grasps").get<int>(), 8 * 10 * 4);
+  EXPECT_EQ(c.at("threshold").at("chosen_on").at(0), Dir("test"));
+  // Each classifier is calibrated on its own probabilities: the constant majority baseline
+  // scores 0.5 at every threshold, so keeps 0.5.
+  EXPECT_DOUBLE_EQ(
+      c.at("baselines").at("majority_class").at("metrics").at("threshold").get<double>(), 0.5);
   char fixed[32];
   std::snprintf(fixed, sizeof fixed, "%.2f", best_t);
   const CliRun at_t = Run("gqcnn-eval --model " + model.string() + " --data " + Dir("train") +
                           " --threshold " + fixed + " --resamples 20 --threads 1");
   ASSERT_EQ(at_t.exit_code, 0) << at_t.err;
   EXPECT_EQ(c.at("gqcnn").at("confusion"), json::parse(at_t.out).at("gqcnn").at("confusion"));
-  EXPECT_TRUE(json::parse(at_t.out).at("threshold_calibration").is_null());
+  EXPECT_DOUBLE_EQ(json::parse(at_t.out).at("threshold").get<double>(), best_t);
+
+  // --cross-calibrate: each set at the threshold chosen on the other; the figures are those of
+  // the two --calibrate-on runs added up.
+  const CliRun other = Run("gqcnn-eval --model " + model.string() + " --data " + Dir("test") +
+                           " --calibrate-on " + Dir("train") + " --resamples 20 --threads 1");
+  ASSERT_EQ(other.exit_code, 0) << other.err;
+  const json o = json::parse(other.out);
+  const CliRun both =
+      Run("gqcnn-eval --model " + model.string() + " --data " + Dir("train") + " --data " +
+          Dir("test") + " --cross-calibrate --resamples 20 --threads 1");
+  ASSERT_EQ(both.exit_code, 0) << both.err;
+  const json x = json::parse(both.out);
+  EXPECT_TRUE(x.at("threshold").at("chosen_on").is_string());
+  const json& per_set = x.at("gqcnn").at("thresholds_per_set");
+  ASSERT_EQ(per_set.size(), 2u);
+  EXPECT_EQ(per_set.at(0).at("data"), Dir("train"));
+  EXPECT_DOUBLE_EQ(per_set.at(0).at("threshold").get<double>(), best_t);
+  EXPECT_DOUBLE_EQ(per_set.at(1).at("threshold").get<double>(),
+                   o.at("gqcnn").at("threshold").get<double>());
+  for (const char* k : {"tp", "fp", "tn", "fn"}) {
+    EXPECT_EQ(x.at("gqcnn").at("confusion").at(k).get<double>(),
+              c.at("gqcnn").at("confusion").at(k).get<double>() +
+                  o.at("gqcnn").at("confusion").at(k).get<double>())
+        << k;
+    const json& xl = x.at("baselines").at("logistic_hand_features").at("metrics");
+    const json& cl = c.at("baselines").at("logistic_hand_features").at("metrics");
+    const json& ol = o.at("baselines").at("logistic_hand_features").at("metrics");
+    EXPECT_EQ(xl.at("confusion").at(k).get<double>(),
+              cl.at("confusion").at(k).get<double>() + ol.at("confusion").at(k).get<double>())
+        << k;
+  }
 }
 
 // --clearance-inputs reaches the model file and the card; gqcnn-eval hands the stored
@@ -288,9 +323,11 @@ TEST_F(GqcnnCliTest, BadCommandLinesExitTwoNamingTheProblem) {
       {"gqcnn-eval --model " + model + " --data " + Dir("test"), "no GQ-CNN model file"},
       {"gqcnn-eval --model " + model + " --data " + Dir("test") +
            " --threshold 0.3 --calibrate-on " + Dir("train"),
-       "not both"},
+       "not two"},
       {"gqcnn-eval --model " + model + " --data " + Dir("test") + " --calibrate-on " + Dir("test"),
        "calibrate on other objects"},
+      {"gqcnn-eval --model " + model + " --data " + Dir("test") + " --cross-calibrate",
+       "two or more --data sets"},
       {"gqcnn-eval --model " + Dir("train") + "/index.json --data " + Dir("test"),
        "cannot read GQ-CNN model"},
   };

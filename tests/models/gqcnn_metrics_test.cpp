@@ -60,6 +60,21 @@ TEST(GqcnnMetricsTest, KnownConfusionMatrixAndTopRankedGrasps) {
   EXPECT_EQ(strict.fp, 0);
   EXPECT_DOUBLE_EQ(strict.precision, 1.0);
   EXPECT_DOUBLE_EQ(strict.top1_precision, 0.5);  // ranking does not depend on the threshold
+
+  // A threshold per grasp: object 10's at 0.85, object 20's at 0.35 -> TP 0.9 and 0.4, FP
+  // object 20's negative at 0.6, FN object 10's positive at 0.6, TN the other five.
+  HandMade per_grasp = h;
+  const std::vector<double> thresholds{0.85, 0.85, 0.85, 0.85, 0.85, 0.35, 0.35, 0.35, 0.35};
+  GqcnnScored scored = per_grasp.Scored();
+  scored.thresholds = thresholds;
+  const GqcnnMetrics mixed = ComputeGqcnnMetrics(scored, 0.5);
+  EXPECT_EQ(mixed.tp, 2);
+  EXPECT_EQ(mixed.fp, 1);
+  EXPECT_EQ(mixed.tn, 5);
+  EXPECT_EQ(mixed.fn, 1);
+  const std::vector<double> too_few{0.5};
+  scored.thresholds = too_few;
+  EXPECT_THROW(ComputeGqcnnMetrics(scored, 0.5), std::invalid_argument);
 }
 
 // Equal probabilities at the top of an image count as a random pick among them (in

@@ -44,7 +44,8 @@ const char* const kGqcnnUsage =
     "  planner admits (the ones strategy=gqcnn lets the network score).\n"
     "       softgrasp-train gqcnn-eval --model MODEL.pt --data DIR [--data DIR2 ...]\n"
     "                                  [--json OUT] [--threshold P] [--resamples N] [--threads T]\n"
-    "                                  [--predictions OUT.csv] [--calibrate-on DIR ...]\n"
+    "                                  [--predictions OUT.csv]\n"
+    "                                  [--calibrate-on DIR ... | --cross-calibrate]\n"
     "  Accuracy, balanced accuracy, precision, recall and precision of the top-ranked grasp per\n"
     "  image, with 95 % intervals resampling objects, for the model and two baselines (majority\n"
     "  class; logistic regression on two hand features fitted on the model's training split).\n"
@@ -53,6 +54,8 @@ const char* const kGqcnnUsage =
     "  against the check alone.\n"
     "  --calibrate-on chooses the threshold (instead of --threshold) where the network's balanced\n"
     "  accuracy is highest on other labelled objects, e.g. real meshes apart from --data.\n"
+    "  --cross-calibrate classifies each --data set at the threshold chosen so on the other\n"
+    "  --data sets, and reports the figures of all of them together.\n"
     "  --predictions writes one row per grasp (record, object, image, label, both probabilities)\n"
     "  in the order the records are read (shard by shard).\n"
     "       softgrasp-train gqcnn-bench [--model MODEL.pt] [--conv1-channels C]\n"
@@ -189,24 +192,115 @@ int RunGqcnnTrain(std::vector<std::string> argv) {
   return 0;
 }
 
+namespace {
+
+/// What each classifier that gqcnn-eval reports says of every grasp of a set: P(success).
+struct SetScores {
+  std::vector<float> gqcnn, logistic, majority;
+  /// With gripper clearances (empty without): the planner never scores a grasp its clearance
+  /// check drops, so such a grasp is a negative (probability 0, below every threshold and every
+  /// admitted grasp's rank); the check alone says 1 or 0.
+  std::vector<float> gqcnn_gated, logistic_gated, check;
+};
+
+SetScores ScoreSet(const models::GqcnnModel& model, const models::LogisticBaseline& baseline,
+                   const models::GqcnnSet& s) {
+  SetScores r;
+  r.gqcnn = model.Predict(
+      s.crops_depth_m, s.grasp_depths_m,
+      model.takes_clearances() ? std::span<const float>(s.clearances_m) : std::span<const float>());
+  r.logistic.resize(s.size());
+  r.majority.assign(s.size(), static_cast<float>(baseline.train_positive_rate));
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    r.logistic[i] = static_cast<float>(
+        baseline.Predict(models::GqcnnHandFeatures(s.crop(i), s.grasp_depths_m[i], s.width_px[i])));
+  }
+  if (s.clearances_measured) {
+    auto gate = [&](const std::vector<float>& p) {
+      std::vector<float> gated(s.size());
+      for (std::size_t i = 0; i < s.size(); ++i) gated[i] = s.admitted[i] ? p[i] : 0.0F;
+      return gated;
+    };
+    r.gqcnn_gated = gate(r.gqcnn);
+    r.logistic_gated = gate(r.logistic);
+    r.check.assign(s.admitted.begin(), s.admitted.end());
+  }
+  return r;
+}
+
+/// How the decision threshold is set: fixed, chosen on other labelled data (--calibrate-on), or
+/// per --data set on the other --data sets (--cross-calibrate). Each classifier is calibrated on
+/// its own probabilities.
+struct ThresholdPolicy {
+  double fixed = 0.5;
+  const models::GqcnnSet* calibration = nullptr;  ///< --calibrate-on's data
+  const SetScores* calibration_scores = nullptr;
+  bool cross = false;
+};
+
+/// Per record of `s`, the threshold of the classifier whose probabilities on `s` are `p` and on
+/// the calibration data `cal_p` (empty when the policy has none); `note` gets the choice.
+/// @throws std::invalid_argument when the data chosen on lacks a class.
+std::vector<double> Thresholds(const ThresholdPolicy& policy, const models::GqcnnSet& s,
+                               std::span<const float> p, std::span<const float> cal_p,
+                               nlohmann::json* note) {
+  if (policy.calibration) {
+    const ThresholdChoice c = ChooseBalancedAccuracyThreshold(policy.calibration->labels, cal_p);
+    *note = {{"threshold", c.threshold}, {"calibration_balanced_accuracy", c.balanced_accuracy}};
+    return std::vector<double>(s.size(), c.threshold);
+  }
+  if (!policy.cross) {
+    *note = {{"threshold", policy.fixed}};
+    return std::vector<double>(s.size(), policy.fixed);
+  }
+  std::vector<double> thresholds(s.size());
+  *note = {{"thresholds_per_set", nlohmann::json::array()}};
+  for (std::uint32_t d = 0; d < s.sources.size(); ++d) {
+    std::vector<std::uint8_t> labels;
+    std::vector<float> others;
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      if (s.object_sources[s.object_keys[i]] == d) continue;
+      labels.push_back(s.labels[i]);
+      others.push_back(p[i]);
+    }
+    const ThresholdChoice c = ChooseBalancedAccuracyThreshold(labels, others);
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      if (s.object_sources[s.object_keys[i]] == d) thresholds[i] = c.threshold;
+    }
+    (*note)["thresholds_per_set"].push_back(
+        {{"data", s.sources[d]},
+         {"threshold", c.threshold},
+         {"balanced_accuracy_on_the_other_sets", c.balanced_accuracy}});
+  }
+  return thresholds;
+}
+
+}  // namespace
+
 int RunGqcnnEvaluate(std::vector<std::string> argv) {
   cli::Args args(std::move(argv));
   std::string model_path, json_out, predictions_out;
   int threads = 2, resamples = 1000;
-  double threshold = 0.5;
+  ThresholdPolicy policy;
   std::uint64_t seed = 1;
   args.Required("--model", "MODEL", &model_path);
   const std::vector<std::string> data = args.All("--data");
   args.Text("--json", &json_out);
   args.Text("--predictions", &predictions_out);
-  const bool has_threshold = args.Number("--threshold", cli::Bounds::Closed(0, 1), &threshold);
+  const bool has_threshold = args.Number("--threshold", cli::Bounds::Closed(0, 1), &policy.fixed);
   const std::vector<std::string> calibration = args.All("--calibrate-on");
+  policy.cross = args.Flag("--cross-calibrate");
   args.Int("--resamples", 10, 1000000, &resamples);
   args.Int("--seed", 0, cli::kNoLimit, &seed);
   args.Int("--threads", 1, 256, &threads);
   if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
-  if (has_threshold && !calibration.empty()) {
-    args.Fail("give --threshold or --calibrate-on, not both", "--calibrate-on");
+  if (int{has_threshold} + int{!calibration.empty()} + int{policy.cross} > 1) {
+    args.Fail("give one of --threshold, --calibrate-on and --cross-calibrate, not two",
+              "--calibrate-on");
+  }
+  if (policy.cross && data.size() < 2) {
+    args.Fail("--cross-calibrate needs two or more --data sets (each is calibrated on the others)",
+              "--cross-calibrate");
   }
   for (const std::string& c : calibration) {
     std::error_code ec;
@@ -225,71 +319,58 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
   const json& card = model.value().Card();
   auto baseline = models::LogisticBaseline::FromJson(card.value("baseline", json::object()));
   if (!baseline.ok()) return FailError(baseline.error());
-  auto predict = [&](const models::GqcnnSet& set) {
-    return model.value().Predict(set.crops_depth_m, set.grasp_depths_m,
-                                 model.value().takes_clearances()
-                                     ? std::span<const float>(set.clearances_m)
-                                     : std::span<const float>());
-  };
   const bool takes_clearances = model.value().takes_clearances();
   constexpr const char* kPredateClearances =
       "the model takes gripper clearances, and these datasets predate them (regenerate them "
       "with softgrasp-sim gqcnn-dataset)";
-  json calibration_json;
+  core::Result<models::GqcnnSet> cal_set = models::GqcnnSet{};
+  SetScores cal_scores;
   if (!calibration.empty()) {
-    // The threshold is chosen on other labelled objects before the evaluation data is read.
-    auto cal = Load(calibration);
-    if (!cal.ok()) return FailError(cal.error());
-    if (takes_clearances && !cal.value().clearances_measured) return Fail(kPredateClearances);
-    const std::vector<float> cal_p = predict(cal.value());
-    ThresholdChoice choice;
-    try {
-      choice = ChooseBalancedAccuracyThreshold(cal.value().labels, cal_p);
-    } catch (const std::invalid_argument&) {
-      return Fail("--calibrate-on data needs grasps that succeed and grasps that fail");
-    }
-    threshold = choice.threshold;
-    calibration_json = {
-        {"data", calibration},
-        {"grasps", cal.value().size()},
-        {"objects", cal.value().object_names.size()},
-        {"rule",
-         "the threshold among 0.01, 0.02, ..., 0.99 with the highest balanced accuracy of the "
-         "network alone on the calibration data (of equal ones, the nearest 0.5)"},
-        {"balanced_accuracy", choice.balanced_accuracy}};
+    cal_set = Load(calibration);
+    if (!cal_set.ok()) return FailError(cal_set.error());
+    if (takes_clearances && !cal_set.value().clearances_measured) return Fail(kPredateClearances);
+    cal_scores = ScoreSet(model.value(), baseline.value(), cal_set.value());
+    policy.calibration = &cal_set.value();
+    policy.calibration_scores = &cal_scores;
   }
   auto set = Load(data);
   if (!set.ok()) return FailError(set.error());
   const models::GqcnnSet& s = set.value();
   if (takes_clearances && !s.clearances_measured) return Fail(kPredateClearances);
+  if (policy.calibration && s.clearances_measured != policy.calibration->clearances_measured) {
+    return Fail("--calibrate-on data and --data differ in whether they carry gripper clearances");
+  }
 
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<float> p = predict(s);
+  const SetScores scores = ScoreSet(model.value(), baseline.value(), s);
   const double predict_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::vector<float> logistic(s.size()), majority(s.size());
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    logistic[i] = static_cast<float>(baseline.value().Predict(
-        models::GqcnnHandFeatures(s.crop(i), s.grasp_depths_m[i], s.width_px[i])));
-    majority[i] = static_cast<float>(baseline.value().train_positive_rate);
-  }
   if (!predictions_out.empty()) {
     std::string csv = "record,object,image,label,p_gqcnn,p_logistic,admitted\n";
     for (std::size_t i = 0; i < s.size(); ++i) {
       csv += std::to_string(i) + "," + s.object_names[s.object_keys[i]] + "," +
              std::to_string(s.image_keys[i]) + "," + std::to_string(int{s.labels[i]}) + "," +
-             std::to_string(p[i]) + "," + std::to_string(logistic[i]) + "," +
+             std::to_string(scores.gqcnn[i]) + "," + std::to_string(scores.logistic[i]) + "," +
              (s.clearances_measured ? std::to_string(int{s.admitted[i]}) : "") + "\n";
     }
     if (auto error = cli::WriteFile(predictions_out, csv, cli::Parents::kCreate)) {
       return FailError(*error);
     }
   }
-  auto score = [&](const std::vector<float>& probabilities) {
-    GqcnnScored scored{s.labels, probabilities, s.object_keys, s.image_keys};
+  // One classifier's figures at its threshold(s), which are written beside them.
+  auto score = [&](std::vector<float> SetScores::*which) {
+    json note;
+    const std::vector<double> thresholds =
+        Thresholds(policy, s, scores.*which,
+                   policy.calibration_scores ? std::span<const float>(cal_scores.*which)
+                                             : std::span<const float>(),
+                   &note);
+    GqcnnScored scored{s.labels, scores.*which, s.object_keys, s.image_keys, thresholds};
     std::vector<GqcnnObjectCounts> per_object;
-    const GqcnnMetrics m = ComputeGqcnnMetrics(scored, threshold, &per_object);
-    return GqcnnMetricsJson(m, BootstrapGqcnnMetrics(per_object, resamples, seed));
+    const GqcnnMetrics m = ComputeGqcnnMetrics(scored, policy.fixed, &per_object);
+    json j = GqcnnMetricsJson(m, BootstrapGqcnnMetrics(per_object, resamples, seed));
+    j.update(note);
+    return j;
   };
   json train_dirs =
       card.contains("data") ? card["data"].value("dirs", json::array()) : json::array();
@@ -302,64 +383,75 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
       }
     }
   }
-  json result = {
-      {"model", model_path},
-      {"model_description", model.value().description()},
-      {"trained_on", train_dirs},
-      {"data", data},
-      {"threshold", threshold},
-      {"threshold_calibration", calibration_json},
-      {"bootstrap",
-       {{"unit", "object"}, {"resamples", resamples}, {"seed", seed}, {"level", 0.95}}},
-      {"predict_seconds", predict_s},
-      {"predict_crops_per_second", predict_s > 0 ? static_cast<double>(s.size()) / predict_s : 0.0},
-      {"gqcnn", score(p)},
-      {"baselines",
-       {{"majority_class",
-         {{"description", "constant P = the training split's positive rate (" +
-                              std::to_string(baseline.value().train_positive_rate) +
-                              "): predicts the majority class; every grasp ties, so its top-grasp "
-                              "precision is each image's positive rate (ties are broken at "
-                              "random, in expectation)"},
-          {"metrics", score(majority)}}},
-        {"logistic_hand_features",
-         {{"description",
-           "logistic regression on (shallower jaw-tip depth - centre depth, grasp "
-           "depth - centre depth), balanced class weights, fitted on the model's "
-           "training split"},
-          {"model", baseline.value().ToJson()},
-          {"metrics", score(logistic)}}}}}};
-  if (s.clearances_measured) {
-    // As strategy=gqcnn classifies: the planner never scores a grasp its clearance check drops,
-    // so such a grasp is a negative (probability 0, below every threshold and every admitted
-    // grasp's rank).
-    auto gate = [&](const std::vector<float>& probabilities) {
-      std::vector<float> gated(s.size());
-      for (std::size_t i = 0; i < s.size(); ++i) gated[i] = s.admitted[i] ? probabilities[i] : 0.0F;
-      return gated;
-    };
-    const std::vector<float> admitted(s.admitted.begin(), s.admitted.end());
-    std::size_t agree = 0, admitted_count = 0;
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      agree += s.admitted[i] == s.collision_free[i] ? 1 : 0;
-      admitted_count += s.admitted[i];
+  json threshold_json = policy.fixed, result;
+  if (policy.calibration) {
+    threshold_json = {{"chosen_on", calibration},
+                      {"chosen_on_grasps", policy.calibration->size()},
+                      {"chosen_on_objects", policy.calibration->object_names.size()}};
+  } else if (policy.cross) {
+    threshold_json = {{"chosen_on", "for each --data set, the other --data sets"}};
+  }
+  if (policy.calibration || policy.cross) {
+    threshold_json["rule"] =
+        "per classifier, the threshold among 0.01, 0.02, ..., 0.99 with its highest balanced "
+        "accuracy there (of equal ones, the nearest 0.5); each classifier's figures give theirs";
+  }
+  try {
+    result = {{"model", model_path},
+              {"model_description", model.value().description()},
+              {"trained_on", train_dirs},
+              {"data", data},
+              {"threshold", threshold_json},
+              {"bootstrap",
+               {{"unit", "object"}, {"resamples", resamples}, {"seed", seed}, {"level", 0.95}}},
+              {"predict_seconds", predict_s},
+              {"predict_crops_per_second",
+               predict_s > 0 ? static_cast<double>(s.size()) / predict_s : 0.0},
+              {"gqcnn", score(&SetScores::gqcnn)},
+              {"baselines",
+               {{"majority_class",
+                 {{"description", "constant P = the training split's positive rate (" +
+                                      std::to_string(baseline.value().train_positive_rate) +
+                                      "): predicts the majority class; every grasp ties, so its "
+                                      "top-grasp precision is each image's positive rate (ties are "
+                                      "broken at random, in expectation)"},
+                  {"metrics", score(&SetScores::majority)}}},
+                {"logistic_hand_features",
+                 {{"description",
+                   "logistic regression on (shallower jaw-tip depth - centre depth, grasp "
+                   "depth - centre depth), balanced class weights, fitted on the model's "
+                   "training split"},
+                  {"model", baseline.value().ToJson()},
+                  {"metrics", score(&SetScores::logistic)}}}}}};
+    if (s.clearances_measured) {
+      std::size_t agree = 0, admitted_count = 0;
+      for (std::size_t i = 0; i < s.size(); ++i) {
+        agree += s.admitted[i] == s.collision_free[i] ? 1 : 0;
+        admitted_count += s.admitted[i];
+      }
+      const gqcnn::ClearanceRule rule;
+      result["clearance"] = {
+          {"rule",
+           {{"fingertip_reach_m", rule.fingertip_reach_m},
+            {"min_height_m", rule.min_height_m},
+            {"floor_noise_m", rule.floor_noise_m}}},
+          {"admitted_rate", static_cast<double>(admitted_count) / static_cast<double>(s.size())},
+          {"agreement_with_collision_labels",
+           static_cast<double>(agree) / static_cast<double>(s.size())}};
+      // As strategy=gqcnn classifies: only the grasps the clearance check admits are scored.
+      result["gqcnn_with_clearance"] = score(&SetScores::gqcnn_gated);
+      result["baselines"]["clearance_check_alone"] = {
+          {"description", "P = 1 for the grasps the clearance check admits, 0 for the others"},
+          {"metrics", score(&SetScores::check)}};
+      result["baselines"]["logistic_with_clearance"] = {
+          {"description", "the logistic baseline on the grasps the clearance check admits"},
+          {"metrics", score(&SetScores::logistic_gated)}};
     }
-    const gqcnn::ClearanceRule rule;
-    result["clearance"] = {
-        {"rule",
-         {{"fingertip_reach_m", rule.fingertip_reach_m},
-          {"min_height_m", rule.min_height_m},
-          {"floor_noise_m", rule.floor_noise_m}}},
-        {"admitted_rate", static_cast<double>(admitted_count) / static_cast<double>(s.size())},
-        {"agreement_with_collision_labels",
-         static_cast<double>(agree) / static_cast<double>(s.size())}};
-    result["gqcnn_with_clearance"] = score(gate(p));
-    result["baselines"]["clearance_check_alone"] = {
-        {"description", "P = 1 for the grasps the clearance check admits, 0 for the others"},
-        {"metrics", score(admitted)}};
-    result["baselines"]["logistic_with_clearance"] = {
-        {"description", "the logistic baseline on the grasps the clearance check admits"},
-        {"metrics", score(gate(logistic))}};
+  } catch (const std::invalid_argument&) {
+    return Fail(policy.cross
+                    ? "--cross-calibrate: every --data set's others need grasps that "
+                      "succeed and grasps that fail"
+                    : "--calibrate-on data needs grasps that succeed and grasps that fail");
   }
   if (!overlap.empty()) {
     result["warning"] = "the evaluation data includes the model's training data";

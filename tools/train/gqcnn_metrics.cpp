@@ -28,7 +28,8 @@ nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 GqcnnMetrics ComputeGqcnnMetrics(const GqcnnScored& s, double threshold,
                                  std::vector<GqcnnObjectCounts>* per_object) {
   const std::size_t n = s.labels.size();
-  if (s.probabilities.size() != n || s.object_keys.size() != n || s.image_keys.size() != n) {
+  if (s.probabilities.size() != n || s.object_keys.size() != n || s.image_keys.size() != n ||
+      (!s.thresholds.empty() && s.thresholds.size() != n)) {
     throw std::invalid_argument("ComputeGqcnnMetrics: spans of different sizes");
   }
   std::map<std::uint32_t, std::size_t> objects;  // key -> dense index, first appearance
@@ -45,7 +46,8 @@ GqcnnMetrics ComputeGqcnnMetrics(const GqcnnScored& s, double threshold,
     if (inserted) counts.emplace_back();
     GqcnnObjectCounts& c = counts[it->second];
     const bool label = s.labels[i] != 0;
-    const bool predicted = s.probabilities[i] >= threshold;
+    const bool predicted =
+        s.probabilities[i] >= (s.thresholds.empty() ? threshold : s.thresholds[i]);
     c.tp += label && predicted;
     c.fp += !label && predicted;
     c.tn += !label && !predicted;

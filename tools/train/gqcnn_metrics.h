@@ -19,6 +19,9 @@ struct GqcnnScored {
   std::span<const float> probabilities;        ///< predicted P(success)
   std::span<const std::uint32_t> object_keys;  ///< any integers; the bootstrap's units
   std::span<const std::uint32_t> image_keys;   ///< grasps of one rendered image share a key
+  /// Per grasp, its own decision threshold (calibrated per dataset); empty: the threshold
+  /// argument of ComputeGqcnnMetrics for every grasp.
+  std::span<const double> thresholds = {};
 };
 
 struct GqcnnMetrics {
