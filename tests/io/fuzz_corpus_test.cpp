@@ -112,6 +112,14 @@ Seeds OtherSeeds() {
        R"({"width": 640, "height": 480, "ppx": 319.5, "ppy": 239.5, "fx": 525, "fy": 525})"},
       {"intr_bad_ros_column_major.json",
        R"({"height": 480, "width": 640, "K": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]})"},
+      {"intr_ok_ros_rect_roi_binning.json",
+       R"({"height": 720, "width": 1280, "distortion_model": "plumb_bob", "D": [0.1, -0.2, 0, 0, 0], )"
+       R"("K": [600, 0, 640, 0, 600, 360, 0, 0, 1], "R": [1, 0, 0, 0, 1, 0, 0, 0, 1], )"
+       R"("P": [590, 0, 638, 0, 0, 590, 358, 0, 0, 0, 1, 0], "binning_x": 2, "binning_y": 2, )"
+       R"("roi": {"x_offset": 0, "y_offset": 0, "height": 0, "width": 0, "do_rectify": false}})"},
+      {"intr_bad_ros_roi_outside.json",
+       R"({"height": 480, "width": 640, "K": [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1], )"
+       R"("roi": {"x_offset": 100, "y_offset": 0, "height": 480, "width": 640}})"},
   };
 }
 

@@ -131,6 +131,78 @@ TEST(IntrinsicsTest, ReadsRosOpen3dAndRealsenseLayoutsAsTheIntrFile) {
   }
 }
 
+// ROS's image_geometry reads a CameraInfo's camera from P (the rectified image's), falls back on
+// K when P is all zeros, and applies the region of interest, then binning.
+TEST(IntrinsicsTest, ReadsRosCameraInfoAsImageGeometryDoes) {
+  auto parse = [](const std::string& json) {
+    auto c = ParseIntrinsicsJson(json);
+    EXPECT_TRUE(c.ok()) << json << ": " << (c.ok() ? "" : c.error().message);
+    return c.ok() ? c.value() : core::Camera{};
+  };
+  const std::string k = R"("K": [600, 0, 330, 0, 610, 250, 0, 0, 1])";
+  const std::string p = R"("P": [590, 0, 320, -59, 0, 595, 245, 0, 0, 0, 1, 0])";
+  // P wins over K, its last column (a stereo baseline) is not used; ROS 2's lower-case too.
+  core::Camera c = parse(R"({"width": 1280, "height": 720, )" + k + ", " + p + "}");
+  EXPECT_DOUBLE_EQ(c.fx, 590);
+  EXPECT_DOUBLE_EQ(c.fy, 595);
+  EXPECT_DOUBLE_EQ(c.cx, 320);
+  EXPECT_DOUBLE_EQ(c.cy, 245);
+  c = parse(R"({"width": 1280, "height": 720, "k": [600, 0, 330, 0, 610, 250, 0, 0, 1],
+                "p": [[590, 0, 320, 0], [0, 595, 245, 0], [0, 0, 1, 0]]})");
+  EXPECT_DOUBLE_EQ(c.fx, 590);
+  // An uncalibrated camera's P is all zeros: K.
+  c = parse(R"({"width": 1280, "height": 720, )" + k + R"(, "P": [0,0,0,0,0,0,0,0,0,0,0,0]})");
+  EXPECT_DOUBLE_EQ(c.fx, 600);
+  EXPECT_DOUBLE_EQ(c.cx, 330);
+  // P alone.
+  c = parse(R"({"width": 1280, "height": 720, )" + p + "}");
+  EXPECT_DOUBLE_EQ(c.cx, 320);
+  // Region of interest: the principal point moves by its offset, the image is its size; all
+  // zeros is the whole image.
+  c = parse(R"({"width": 1280, "height": 720, )" + k +
+            R"(, "roi": {"x_offset": 100, "y_offset": 50, "width": 640, "height": 480,
+                         "do_rectify": false}})");
+  EXPECT_DOUBLE_EQ(c.cx, 230);
+  EXPECT_DOUBLE_EQ(c.cy, 200);
+  EXPECT_DOUBLE_EQ(c.fx, 600);
+  EXPECT_EQ(c.width, 640);
+  EXPECT_EQ(c.height, 480);
+  c = parse(R"({"width": 1280, "height": 720, )" + k +
+            R"(, "roi": {"x_offset": 0, "y_offset": 0, "width": 0, "height": 0},
+                "binning_x": 0, "binning_y": 0})");
+  EXPECT_EQ(c.width, 1280);
+  EXPECT_DOUBLE_EQ(c.cx, 330);
+  // Binning 2 x 4 after the region of interest: fx, cx and the width halve, fy, cy and the
+  // height quarter.
+  c = parse(R"({"width": 1280, "height": 720, )" + k +
+            R"(, "roi": {"x_offset": 100, "y_offset": 50, "width": 640, "height": 480},
+                "binning_x": 2, "binning_y": 4})");
+  EXPECT_DOUBLE_EQ(c.fx, 300);
+  EXPECT_DOUBLE_EQ(c.cx, 115);
+  EXPECT_DOUBLE_EQ(c.fy, 152.5);
+  EXPECT_DOUBLE_EQ(c.cy, 50);
+  EXPECT_EQ(c.width, 320);
+  EXPECT_EQ(c.height, 120);
+
+  // Broken ones name their key.
+  const std::string size = R"({"width": 1280, "height": 720, )";
+  ExpectFieldError(size + k + R"(, "P": [590, 0, 320, 0, 0, 595, 245, 0, 0, 0, 1]})", "P");
+  ExpectFieldError(size + k + R"(, "P": [590, 0, 320, 0, 0, 595, 245, 0, 0, 0, 1, 5]})", "P");
+  ExpectFieldError(size + R"("P": [0,0,0,0,0,0,0,0,0,0,0,0]})", "P");
+  ExpectFieldError(size + k + R"(, "roi": {"x_offset": 700, "y_offset": 0, "width": 640,
+                                           "height": 480}})",
+                   "roi");
+  ExpectFieldError(size + k + R"(, "roi": {"x_offset": 10, "y_offset": 0, "width": 0,
+                                           "height": 0}})",
+                   "roi");
+  ExpectFieldError(size + k + R"(, "roi": [0, 0, 640, 480]})", "roi");
+  ExpectFieldError(size + k + R"(, "roi": {"x_offset": -1, "width": 640, "height": 480}})",
+                   "roi.x_offset");
+  ExpectFieldError(size + k + R"(, "binning_x": 1.5})", "binning_x");
+  ExpectFieldError(size + k + R"(, "binning_y": "2"})", "binning_y");
+  ExpectFieldError(size + k + R"(, "binning_x": 4096})", "binning_x");
+}
+
 TEST(IntrinsicsTest, NamesTheKeyAtFaultInEveryLayout) {
   // A matrix in the other order would put the principal point in the wrong place: refused.
   ExpectFieldError(R"({"width": 640, "height": 480, "K": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]})",

@@ -379,7 +379,8 @@ TEST_F(GraspsApiTest, IntrinsicsOfAnotherImageSizeAreRefused) {
 }
 
 // A ROS node sends its CameraInfo as JSON (a form field, no file name): the same camera and the
-// same grasps as the .intr file; a column-major matrix in "K" is refused naming it.
+// same grasps as the .intr file, also as a binned rectified camera; a column-major matrix in "K"
+// is refused naming it.
 TEST_F(GraspsApiTest, RosCameraInfoIsReadAsTheIntrFile) {
   const std::string npy = ReadFileBytes(TestData("gqcnn/primesense/single_depth_0.npy"));
   const auto intr = server_->Send(MultipartRequest(
@@ -398,6 +399,19 @@ TEST_F(GraspsApiTest, RosCameraInfoIsReadAsTheIntrFile) {
   EXPECT_EQ(json::parse(ros.body)["camera"], json::parse(intr.body)["camera"]);
   EXPECT_EQ(json::parse(ros.body)["camera"]["source"], "request");
   EXPECT_EQ(json::parse(ros.body)["grasps"], json::parse(intr.body)["grasps"]);
+  // The same camera as a 1280 x 960 sensor's rectified CameraInfo with 2 x 2 binning: P (not
+  // the raw image's K) halved.
+  const auto binned = server_->Send(
+      MultipartRequest("/v1/grasps", {{"depth", npy, "d.npy"},
+                                      {"intrinsics",
+                                       R"({"height": 960, "width": 1280, "D": [0.05, -0.1, 0, 0, 0],
+            "K": [1062.0, 0.0, 645.0, 0.0, 1060.0, 470.0, 0.0, 0.0, 1.0],
+            "P": [1050.0, 0.0, 639.0, 0.0, 0.0, 1050.0, 479.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+            "binning_x": 2, "binning_y": 2})",
+                                       ""}}));
+  ASSERT_EQ(binned.status, 200) << binned.body;
+  EXPECT_EQ(json::parse(binned.body)["camera"], json::parse(intr.body)["camera"]);
+  EXPECT_EQ(json::parse(binned.body)["grasps"], json::parse(intr.body)["grasps"]);
   ExpectError(
       server_->Send(MultipartRequest(
           "/v1/grasps",
