@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The Table 4.1 experiment script (scripts/gqcnn-experiment.sh) end to end at toy size, with the
-# real binaries: five datasets, five trainings of a few steps, the held-out evaluation (the bar
-# clamp from tests/data instead of the downloaded meshes) and simulated picks; then a rerun,
-# which must skip every step.
+# real binaries: five datasets, five trainings of a few steps, the held-out evaluations (the bar
+# clamp from tests/data as both real sets instead of the downloaded meshes) and simulated picks;
+# then a rerun, which must skip every step.
 #   gqcnn_experiment_smoke.sh SOURCE_DIR SOFTGRASP_SIM SOFTGRASP_TRAIN
 set -euo pipefail
 root="$1"
@@ -12,7 +12,8 @@ trap 'rm -rf "$work"' EXIT
 mkdir "$work/meshes"
 cp "$root/tests/data/meshes/dexnet_bar_clamp.obj" "$work/meshes/"
 export GQ_OBJECTS=3 GQ_IMAGES=3 GQ_STEPS=10 GQ_HELDOUT_IMAGES=6 GQ_PICK_SCENES=1 \
-  GQ_CLUTTER_SCENES=1 GQ_HELDOUT_MESHES="$work/meshes"
+  GQ_CLUTTER_SCENES=1 GQ_HELDOUT_MESHES="$work/meshes" GQ_SECOND_MESHES="$work/meshes" \
+  GQ_ROBUST_SAMPLES=25
 bash "$root/scripts/gqcnn-experiment.sh" "$work/out" > "$work/first.log" 2>&1 ||
   { cat "$work/first.log"; exit 1; }
 
@@ -27,6 +28,14 @@ for s in fractal-006 fractal-030 fractal-070 primitive catalogue; do
     fail "$s: not evaluated on the held-out set alone"
   jq -e '.gqcnn.balanced_accuracy | (. == null) or (. >= 0 and . <= 1)' "$e" >/dev/null ||
     fail "$s: balanced accuracy out of range"
+  # The shipped network's options reach every training.
+  jq -e '.architecture.output | startswith("factored")' "$work/out/models/$s.json" >/dev/null ||
+    fail "$s: not trained with the default options"
+  # Both real sets, each at the threshold chosen on the other.
+  x="$work/out/eval/$s-cross.json"
+  jq -e '.data == ["'"$work/out/heldout"'", "'"$work/out/second"'"] and
+    (.gqcnn.thresholds_per_set | length == 2) and (.gqcnn.grasps > 0)' "$x" >/dev/null ||
+    fail "$s: no cross-calibrated evaluation on the two real sets"
 done
 # Picks: FGE and the five models on the same scenes, one single-object and one clutter scene.
 jq -e '[.sets[].planners | length] == [6, 6]' "$work/out/picks.json" >/dev/null ||
