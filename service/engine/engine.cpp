@@ -59,10 +59,11 @@ PlanError PlanGqcnn(const PlanContext& c, Plan* plan) {
     out.grasp = g.grasp;
     out.gqcnn_pose = g.image_pose;
     out.gqcnn_contacts = g.contacts;
+    out.gqcnn_predicted_success = g.quality >= model.decision_threshold();
     plan->grasps.push_back(std::move(out));
   }
-  plan->gqcnn = GqcnnStats{p.edge_pixels, p.antipodal_pairs, p.evaluated, p.timing.sample_ms,
-                           p.timing.evaluate_ms};
+  plan->gqcnn = GqcnnStats{p.edge_pixels,      p.antipodal_pairs,    p.evaluated,
+                           p.timing.sample_ms, p.timing.evaluate_ms, model.decision_threshold()};
   return std::nullopt;
 }
 

@@ -135,6 +135,8 @@ struct PlannedGrasp {
   std::optional<gqcnn::GraspImagePose> gqcnn_pose;
   /// strategy=gqcnn only: the contact check's verdict (firm grasps rank first).
   core::ContactHold gqcnn_contacts = core::ContactHold::kFirm;
+  /// strategy=gqcnn only: P(success) at or above the model's decision threshold.
+  bool gqcnn_predicted_success = false;
 };
 
 /// What strategy=gqcnn did.
@@ -144,6 +146,8 @@ struct GqcnnStats {
   int evaluated = 0;  ///< crops the network scored
   double sample_ms = 0;
   double evaluate_ms = 0;
+  /// The model's decision threshold (models::GqcnnModel::decision_threshold).
+  double decision_threshold = 0.5;
 };
 
 /// The target a strategy that plans targets chose.

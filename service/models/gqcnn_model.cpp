@@ -15,6 +15,8 @@ struct GqcnnModel::Impl {
   LoadedGqcnnNet loaded;
   std::string description;
   std::int64_t parameters = 0;
+  double decision_threshold = 0.5;
+  nlohmann::json decision_threshold_card;  // null without one
   mutable std::mutex mutex;
 };
 
@@ -29,6 +31,19 @@ core::Result<GqcnnModel> GqcnnModel::Load(const std::filesystem::path& path) {
   auto impl = std::make_unique<Impl>();
   impl->loaded = std::move(loaded.value());
   impl->parameters = CountParameters(*impl->loaded.net);
+  if (const auto it = impl->loaded.card.find("decision_threshold"); it != impl->loaded.card.end()) {
+    const nlohmann::json* p = it->is_object() && it->contains("p") ? &it->at("p") : nullptr;
+    const double value = p && p->is_number() ? p->get<double>() : -1.0;
+    if (!(value > 0.0 && value < 1.0)) {
+      return core::MakeError(core::ErrorCode::kUnprocessable,
+                             path.string() +
+                                 ": the card's decision_threshold must be {\"p\": a number in "
+                                 "(0, 1), ...}",
+                             "model");
+    }
+    impl->decision_threshold = value;
+    impl->decision_threshold_card = *it;
+  }
   FlushSubnormalParameters(*impl->loaded.net);
   const GqcnnNetConfig& c = impl->loaded.config;
   impl->description =
@@ -77,6 +92,10 @@ std::vector<float> GqcnnModel::Predict(std::span<const float> crops, std::span<c
 
 bool GqcnnModel::takes_clearances() const { return impl_->loaded.config.clearance_inputs; }
 const nlohmann::json& GqcnnModel::Card() const { return impl_->loaded.card; }
+double GqcnnModel::decision_threshold() const { return impl_->decision_threshold; }
+const nlohmann::json& GqcnnModel::decision_threshold_card() const {
+  return impl_->decision_threshold_card;
+}
 std::int64_t GqcnnModel::parameter_count() const { return impl_->parameters; }
 const std::string& GqcnnModel::description() const { return impl_->description; }
 

@@ -21,8 +21,8 @@ class GqcnnModel {
  public:
   /// Reads a model file written by `softgrasp-train gqcnn`. Never throws. Errors: kNotFound (no
   /// such file), kUnprocessable (not a GQ-CNN model file, truncated, corrupted, a format version
-  /// this build does not read, an implausible config or normalisation); the message names the
-  /// path and the reason.
+  /// this build does not read, an implausible config or normalisation, a card decision threshold
+  /// outside (0, 1)); the message names the path and the reason.
   static core::Result<GqcnnModel> Load(const std::filesystem::path& path);
 
   /// P(grasp succeeds) in [0, 1] for each of n grasps. `crops_depth_m`: n x gqcnn::kCropPixels
@@ -44,6 +44,13 @@ class GqcnnModel {
   /// The model card stored in the file: training data, steps, time, validation metrics,
   /// normalisation, architecture, parameter count, the baseline fitted on the training split.
   const nlohmann::json& Card() const;
+
+  /// Where P(success) is cut into "predicted to succeed": the card's `decision_threshold.p`,
+  /// written by `softgrasp-train gqcnn-calibrate` (chosen on labelled objects of the kind the
+  /// network is used on; docs/gqcnn.md), or 0.5 for a card without one.
+  double decision_threshold() const;
+  /// The card's `decision_threshold` object, or null for a card without one.
+  const nlohmann::json& decision_threshold_card() const;
 
   std::int64_t parameter_count() const;
   const std::string& description() const;  ///< one line: architecture and parameter count

@@ -52,10 +52,10 @@ json GraspToJson(const engine::PlannedGrasp& planned, int rank) {
   json gqcnn;
   if (const auto& pose = planned.gqcnn_pose) {
     // The network's input besides the crop: how deep below the camera the jaws' centre goes.
-    gqcnn = {
-        {"predicted_quality", g.score},
-        {"grasp_depth_m", pose->depth_m},
-        {"contacts", planned.gqcnn_contacts == core::ContactHold::kStable ? "stable" : "firm"}};
+    gqcnn = {{"predicted_quality", g.score},
+             {"grasp_depth_m", pose->depth_m},
+             {"contacts", planned.gqcnn_contacts == core::ContactHold::kStable ? "stable" : "firm"},
+             {"predicted_success", planned.gqcnn_predicted_success}};
   }
   return {
       {"rank", rank},
@@ -113,7 +113,11 @@ json ModelsJson(const Models& models) {
     list.push_back({{"name", "gqcnn"},
                     {"kind", "grasp_quality"},
                     {"parameters", gqcnn->parameter_count()},
-                    {"description", gqcnn->description()}});
+                    {"description", gqcnn->description()},
+                    // Where its P(success) is cut into predicted_success, and what it was
+                    // chosen on (null: the default 0.5, chosen on nothing).
+                    {"decision_threshold", gqcnn->decision_threshold()},
+                    {"decision_threshold_chosen_on", gqcnn->decision_threshold_card()}});
   }
   return list;
 }
@@ -272,11 +276,10 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
       {"timing_ms", timing},
   };
   if (const auto& g = plan.gqcnn) {
-    body["gqcnn"] = {{"edge_pixels", g->edge_pixels},
-                     {"antipodal_pairs", g->antipodal_pairs},
-                     {"evaluated", g->evaluated},
-                     {"sample_ms", g->sample_ms},
-                     {"evaluate_ms", g->evaluate_ms}};
+    body["gqcnn"] = {
+        {"edge_pixels", g->edge_pixels}, {"antipodal_pairs", g->antipodal_pairs},
+        {"evaluated", g->evaluated},     {"sample_ms", g->sample_ms},
+        {"evaluate_ms", g->evaluate_ms}, {"decision_threshold", g->decision_threshold}};
   }
   if (const auto& t = plan.target) {
     body["target"] = {{"id", t->id > 0 ? json(t->id) : json()},

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "service/gqcnn/clearance.h"
+#include "service/gqcnn/dataset_format.h"
 #include "service/models/gqcnn_model.h"
 #include "tests/models/gqcnn_synthetic.h"
 #include "tests/support/temp_dir.h"
@@ -247,6 +248,30 @@ TEST_F(GqcnnCliTest, FactoredTrainingWithoutGainAndPredictionRows) {
   EXPECT_EQ(c.at("gqcnn").at("confusion"), json::parse(at_t.out).at("gqcnn").at("confusion"));
   EXPECT_DOUBLE_EQ(json::parse(at_t.out).at("threshold").get<double>(), best_t);
 
+  // gqcnn-calibrate writes the same choice into the model's card; the network is unchanged.
+  const fs::path cut_model = *root_ / "factored" / "cut" / "gqcnn.pt";
+  const CliRun cut = Run("gqcnn-calibrate --model " + model.string() + " --data " + Dir("test") +
+                         " --out " + cut_model.string() + " --threads 1");
+  ASSERT_EQ(cut.exit_code, 0) << cut.err;
+  const json cut_card = json::parse(Slurp(*root_ / "factored" / "cut" / "gqcnn.json"));
+  EXPECT_DOUBLE_EQ(cut_card.at("decision_threshold").at("p").get<double>(), best_t);
+  EXPECT_EQ(cut_card.at("decision_threshold").at("grasps").get<int>(), 8 * 10 * 4);
+  EXPECT_EQ(cut_card.at("model_file_bytes").get<std::int64_t>(),
+            static_cast<std::int64_t>(fs::file_size(cut_model)));
+  auto before = GqcnnModel::Load(model);
+  auto after = GqcnnModel::Load(cut_model);
+  ASSERT_TRUE(before.ok() && after.ok());
+  EXPECT_DOUBLE_EQ(after.value().decision_threshold(), best_t);
+  EXPECT_EQ(after.value().Card().at("decision_threshold"), cut_card.at("decision_threshold"));
+  const CliRun unwritable = Run("gqcnn-calibrate --model " + model.string() + " --data " +
+                                Dir("test") + " --out /proc/softgrasp-nowhere/m.pt");
+  EXPECT_EQ(unwritable.exit_code, 2);
+  EXPECT_NE(unwritable.err.find("cannot write /proc/softgrasp-nowhere/m.pt"), std::string::npos)
+      << unwritable.err;
+  std::vector<float> crops(3 * gqcnn::kCropPixels, 0.7F), depths{0.68F, 0.69F, 0.7F};
+  for (std::size_t i = 0; i < crops.size(); i += 7) crops[i] = 0.65F;
+  EXPECT_EQ(before.value().Predict(crops, depths), after.value().Predict(crops, depths));
+
   // --cross-calibrate: each set at the threshold chosen on the other; the figures are those of
   // the two --calibrate-on runs added up.
   const CliRun other = Run("gqcnn-eval --model " + model.string() + " --data " + Dir("test") +
@@ -328,6 +353,13 @@ TEST_F(GqcnnCliTest, BadCommandLinesExitTwoNamingTheProblem) {
        "calibrate on other objects"},
       {"gqcnn-eval --model " + model + " --data " + Dir("test") + " --cross-calibrate",
        "two or more --data sets"},
+      {"gqcnn-calibrate --model " + model + " --data " + Dir("test"), "--out OUT is required"},
+      {"gqcnn-calibrate --model " + model + " --out " + model, "--data DIR is required"},
+      {"gqcnn-calibrate --model " + model + " --data " + Dir("test") + " --out " + model,
+       "no GQ-CNN model file"},
+      {"gqcnn-calibrate --model " + Dir("train") + "/index.json --data " + Dir("test") + " --out " +
+           model,
+       "cannot read GQ-CNN model"},
       {"gqcnn-eval --model " + Dir("train") + "/index.json --data " + Dir("test"),
        "cannot read GQ-CNN model"},
   };

@@ -105,6 +105,9 @@ TEST(GqcnnModelTest, SavedFileGivesTheSameOutputsAndCard) {
   EXPECT_LT(max_diff, 1e-6f);
   EXPECT_EQ(model.value().Card(), card);
   EXPECT_EQ(model.value().parameter_count(), CountParameters(*net));
+  // Without a decision threshold in the card: 0.5, chosen on nothing.
+  EXPECT_DOUBLE_EQ(model.value().decision_threshold(), 0.5);
+  EXPECT_TRUE(model.value().decision_threshold_card().is_null());
   // A second load reads the same normalisation and config back.
   auto raw = LoadGqcnnNet(path);
   ASSERT_TRUE(raw.ok());
@@ -382,6 +385,26 @@ TEST(GqcnnModelTest, RefusesMissingBrokenAndForeignFiles) {
   auto f = GqcnnModel::Load(foreign);
   ASSERT_FALSE(f.ok());
   EXPECT_NE(f.error().message.find("not a GQ-CNN model"), std::string::npos) << f.error().message;
+
+  // A card's decision threshold (softgrasp-train gqcnn-calibrate) is read; one outside (0, 1),
+  // or not a number, is refused naming it.
+  const json chosen = {{"p", 0.24}, {"chosen_on", {"real meshes"}}};
+  SaveGqcnnNet(dir.path() / "cut-024.pt", net, GqcnnNetConfig{}, kNorm,
+               {{"decision_threshold", chosen}});
+  auto calibrated = GqcnnModel::Load(dir.path() / "cut-024.pt");
+  ASSERT_TRUE(calibrated.ok()) << calibrated.error().message;
+  EXPECT_DOUBLE_EQ(calibrated.value().decision_threshold(), 0.24);
+  EXPECT_EQ(calibrated.value().decision_threshold_card(), chosen);
+  for (const json& bad :
+       {json{{"p", 1.0}}, json{{"p", 0.0}}, json{{"p", "0.3"}}, json(0.3), json::object()}) {
+    SCOPED_TRACE(bad.dump());
+    SaveGqcnnNet(dir.path() / "bad-cut.pt", net, GqcnnNetConfig{}, kNorm,
+                 {{"decision_threshold", bad}});
+    auto b = GqcnnModel::Load(dir.path() / "bad-cut.pt");
+    ASSERT_FALSE(b.ok());
+    EXPECT_EQ(b.error().code, core::ErrorCode::kUnprocessable);
+    EXPECT_NE(b.error().message.find("decision_threshold"), std::string::npos);
+  }
 
   // Another format version.
   RewriteConfig(good, dir.path() / "v99.pt",

@@ -98,6 +98,9 @@ TEST_F(GqcnnApiTest, RanksGraspsOnTheObjectByPredictedQuality) {
       EXPECT_LE(q, previous) << "grasps are not best first";
       previous = q;
       previous_contacts = contacts;
+      // Predicted to succeed exactly at or above the model's decision threshold.
+      EXPECT_EQ(g["gqcnn"]["predicted_success"].get<bool>(),
+                q >= body["gqcnn"]["decision_threshold"].get<double>());
       // The jaws' centre is below the surface the camera sees at the centre pixel (5-40 mm).
       const double depth = g["gqcnn"]["grasp_depth_m"].get<double>();
       EXPECT_GT(depth, 0.5);
@@ -138,7 +141,18 @@ TEST_F(GqcnnApiTest, InfoListsTheModelAndItsDefaults) {
   ASSERT_EQ(reply.status, 200);
   const json info = json::parse(reply.body);
   bool listed = false;
-  for (const json& m : info["models"]) listed |= m["name"] == "gqcnn";
+  for (const json& m : info["models"]) {
+    if (m["name"] != "gqcnn") continue;
+    listed = true;
+    // The shipped network's cut, chosen on real meshes (models/gqcnn.json), as the grasps use.
+    const json& card = m["decision_threshold_chosen_on"];
+    ASSERT_TRUE(card.is_object()) << m.dump();
+    EXPECT_DOUBLE_EQ(m["decision_threshold"].get<double>(), card["p"].get<double>());
+    EXPECT_GT(m["decision_threshold"].get<double>(), 0.0);
+    EXPECT_LT(m["decision_threshold"].get<double>(), 1.0);
+    EXPECT_DOUBLE_EQ(Grasps(0, "strategy=gqcnn")["gqcnn"]["decision_threshold"].get<double>(),
+                     m["decision_threshold"].get<double>());
+  }
   EXPECT_TRUE(listed) << info["models"].dump();
   EXPECT_EQ(info["defaults"]["gqcnn"]["gqcnn_seed_samples"], 250);
 }

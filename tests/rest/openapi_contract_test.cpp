@@ -246,6 +246,33 @@ TEST(OpenApiContractTest, DeformabilityAnswersMatchTheirSchemas) {
   }
 }
 
+// strategy=gqcnn with the shipped GQ-CNN (skipped without one): its grasp and answer fields,
+// and the model's decision threshold in /v1/info.
+TEST(OpenApiContractTest, GqcnnAnswersMatchTheirSchemas) {
+  const auto model = testing::ShippedGqcnnModel();
+  if (!model) GTEST_SKIP() << "no shipped GQ-CNN (models/gqcnn.pt)";
+  testing::RunningServer server({}, nullptr, nullptr, nullptr, nullptr, model);
+  const json spec = LoadSpec();
+  const SchemaValidator validator(spec);
+  const auto info = server.Send(testing::RawRequest("GET", "/v1/info"));
+  EXPECT_EQ(validator.Validate(json::parse(info.body), spec["components"]["schemas"]["Info"]),
+            std::vector<std::string>{});
+  const auto grasps = server.Send(testing::MultipartRequest(
+      "/v1/grasps",
+      {{"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
+        "d.npy"},
+       {"intrinsics", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
+        "p.intr"},
+       {"strategy", "gqcnn", ""},
+       {"min_depth_m", "0.6", ""}}));
+  ASSERT_EQ(grasps.status, 200) << grasps.body;
+  const json body = json::parse(grasps.body);
+  ASSERT_FALSE(body["grasps"].empty());
+  EXPECT_TRUE(body["grasps"][0]["gqcnn"].contains("predicted_success"));
+  EXPECT_EQ(validator.Validate(body, spec["components"]["schemas"]["GraspResponse"]),
+            std::vector<std::string>{});
+}
+
 TEST(OpenApiContractTest, DisabledRobotRoutesAnswerTheDocumented503) {
   const json spec = LoadSpec();
   const SchemaValidator validator(spec);

@@ -58,6 +58,11 @@ const char* const kGqcnnUsage =
     "  --data sets, and reports the figures of all of them together.\n"
     "  --predictions writes one row per grasp (record, object, image, label, both probabilities)\n"
     "  in the order the records are read (shard by shard).\n"
+    "       softgrasp-train gqcnn-calibrate --model MODEL.pt --data DIR [--data DIR2 ...]\n"
+    "                                       --out OUT.pt [--threads T]\n"
+    "  Chooses the decision threshold on labelled objects of the kind the network will be used\n"
+    "  on (as gqcnn-eval --calibrate-on does) and writes the model with it in its card\n"
+    "  (OUT.pt and OUT.json; the service reports each grasp's predicted_success with it).\n"
     "       softgrasp-train gqcnn-bench [--model MODEL.pt] [--conv1-channels C]\n"
     "                                   [--conv2-channels C] [--fc-units U] [--threads T]\n"
     "  Measures Predict for 250 and 1000 crops and training throughput (crops/s).\n";
@@ -463,6 +468,85 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
       return FailError(*error);
   }
   std::cout << text;
+  return 0;
+}
+
+int RunGqcnnCalibrate(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
+  std::string model_path, out;
+  int threads = 2;
+  args.Required("--model", "MODEL", &model_path);
+  const std::vector<std::string> data = args.All("--data");
+  args.Required("--out", "OUT", &out);
+  args.Int("--threads", 1, 256, &threads);
+  if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
+  if (const auto error = args.Finish()) return Fail(error->message);
+
+  models::SetTorchThreads(threads);
+  auto model = models::GqcnnModel::Load(model_path);
+  if (!model.ok()) return FailError(model.error());
+  auto raw = models::LoadGqcnnNet(model_path);  // written back as read (weights unflushed)
+  if (!raw.ok()) return FailError(raw.error());
+  auto set = Load(data);
+  if (!set.ok()) return FailError(set.error());
+  const models::GqcnnSet& s = set.value();
+  if (model.value().takes_clearances() && !s.clearances_measured) {
+    return Fail(
+        "the model takes gripper clearances, and these datasets predate them (regenerate them "
+        "with softgrasp-sim gqcnn-dataset)");
+  }
+  const std::vector<float> p = model.value().Predict(s.crops_depth_m, s.grasp_depths_m,
+                                                     model.value().takes_clearances()
+                                                         ? std::span<const float>(s.clearances_m)
+                                                         : std::span<const float>());
+  ThresholdChoice choice;
+  try {
+    choice = ChooseBalancedAccuracyThreshold(s.labels, p);
+  } catch (const std::invalid_argument&) {
+    return Fail("--data needs grasps that succeed and grasps that fail");
+  }
+  json card = raw.value().card;
+  card["decision_threshold"] = {
+      {"p", choice.threshold},
+      {"chosen_on", data},
+      {"grasps", s.size()},
+      {"objects", s.object_names.size()},
+      {"balanced_accuracy_there", choice.balanced_accuracy},
+      {"rule",
+       "of 0.01, 0.02, ..., 0.99, the threshold with the network's highest balanced accuracy on "
+       "these grasps (of equal ones, the nearest 0.5)"}};
+  std::error_code ec;
+  if (const fs::path parent = fs::path(out).parent_path(); !parent.empty()) {
+    fs::create_directories(parent, ec);
+  }
+  try {
+    models::SaveGqcnnNet(out, raw.value().net, raw.value().config, raw.value().normalisation, card);
+  } catch (const std::exception& e) {
+    const std::string what = e.what();
+    return Fail("cannot write " + out + ": " + what.substr(0, what.find('\n')));
+  }
+  // The card beside the model: the one beside --model when there is one (it may carry notes
+  // added after training), with the threshold and the new file's size.
+  json side = card;
+  {
+    std::ifstream in(models::GqcnnCardPath(model_path));
+    if (in) {
+      json existing = json::parse(in, nullptr, /*allow_exceptions=*/false);
+      if (existing.is_object()) {
+        existing["decision_threshold"] = card["decision_threshold"];
+        side = existing;
+      }
+    }
+  }
+  side["model_file_bytes"] = fs::file_size(out);
+  if (auto error = cli::WriteFile(models::GqcnnCardPath(out).string(), side.dump(2) + "\n",
+                                  cli::Parents::kCreate)) {
+    return FailError(*error);
+  }
+  std::cout << "decision threshold " << choice.threshold << " (balanced accuracy "
+            << choice.balanced_accuracy << " on " << s.size() << " grasps of "
+            << s.object_names.size() << " objects); model " << out << ", card "
+            << models::GqcnnCardPath(out).string() << std::endl;
   return 0;
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-/// `softgrasp-train gqcnn`, `gqcnn-eval` and `gqcnn-bench` (docs/gqcnn.md).
+/// `softgrasp-train gqcnn`, `gqcnn-eval`, `gqcnn-calibrate` and `gqcnn-bench` (docs/gqcnn.md).
 
 #include <string>
 #include <vector>
@@ -10,6 +10,7 @@ extern const char* const kGqcnnUsage;
 
 int RunGqcnnTrain(std::vector<std::string> args);
 int RunGqcnnEvaluate(std::vector<std::string> args);
+int RunGqcnnCalibrate(std::vector<std::string> args);
 int RunGqcnnBench(std::vector<std::string> args);
 
 }  // namespace softgrasp::tools

@@ -159,6 +159,7 @@ int main(int argc, char** argv) {
   }
   if (command == "gqcnn") return softgrasp::tools::RunGqcnnTrain(std::move(args));
   if (command == "gqcnn-eval") return softgrasp::tools::RunGqcnnEvaluate(std::move(args));
+  if (command == "gqcnn-calibrate") return softgrasp::tools::RunGqcnnCalibrate(std::move(args));
   if (command == "gqcnn-bench") return softgrasp::tools::RunGqcnnBench(std::move(args));
   if (command == "gqcnn-picks") return softgrasp::tools::RunGqcnnPicks(std::move(args));
   if (command == "--help" || command == "-h") {
