@@ -208,12 +208,21 @@ struct SetScores {
   std::vector<float> gqcnn_gated, logistic_gated, check;
 };
 
+constexpr const char* kPredateClearances =
+    "the model takes gripper clearances, and these datasets predate them (regenerate them with "
+    "softgrasp-sim gqcnn-dataset)";
+
+/// The network's P(success) for every grasp of a set (its stored clearances when it takes them).
+std::vector<float> PredictSet(const models::GqcnnModel& model, const models::GqcnnSet& s) {
+  return model.Predict(
+      s.crops_depth_m, s.grasp_depths_m,
+      model.takes_clearances() ? std::span<const float>(s.clearances_m) : std::span<const float>());
+}
+
 SetScores ScoreSet(const models::GqcnnModel& model, const models::LogisticBaseline& baseline,
                    const models::GqcnnSet& s) {
   SetScores r;
-  r.gqcnn = model.Predict(
-      s.crops_depth_m, s.grasp_depths_m,
-      model.takes_clearances() ? std::span<const float>(s.clearances_m) : std::span<const float>());
+  r.gqcnn = PredictSet(model, s);
   r.logistic.resize(s.size());
   r.majority.assign(s.size(), static_cast<float>(baseline.train_positive_rate));
   for (std::size_t i = 0; i < s.size(); ++i) {
@@ -325,9 +334,6 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
   auto baseline = models::LogisticBaseline::FromJson(card.value("baseline", json::object()));
   if (!baseline.ok()) return FailError(baseline.error());
   const bool takes_clearances = model.value().takes_clearances();
-  constexpr const char* kPredateClearances =
-      "the model takes gripper clearances, and these datasets predate them (regenerate them "
-      "with softgrasp-sim gqcnn-dataset)";
   core::Result<models::GqcnnSet> cal_set = models::GqcnnSet{};
   SetScores cal_scores;
   if (!calibration.empty()) {
@@ -490,15 +496,8 @@ int RunGqcnnCalibrate(std::vector<std::string> argv) {
   auto set = Load(data);
   if (!set.ok()) return FailError(set.error());
   const models::GqcnnSet& s = set.value();
-  if (model.value().takes_clearances() && !s.clearances_measured) {
-    return Fail(
-        "the model takes gripper clearances, and these datasets predate them (regenerate them "
-        "with softgrasp-sim gqcnn-dataset)");
-  }
-  const std::vector<float> p = model.value().Predict(s.crops_depth_m, s.grasp_depths_m,
-                                                     model.value().takes_clearances()
-                                                         ? std::span<const float>(s.clearances_m)
-                                                         : std::span<const float>());
+  if (model.value().takes_clearances() && !s.clearances_measured) return Fail(kPredateClearances);
+  const std::vector<float> p = PredictSet(model.value(), s);
   ThresholdChoice choice;
   try {
     choice = ChooseBalancedAccuracyThreshold(s.labels, p);
