@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -112,9 +113,10 @@ TEST(GqcnnMetricsTest, CalibratedThresholdMaximisesBalancedAccuracy) {
                    0.5);
   EXPECT_DOUBLE_EQ(ChooseBalancedAccuracyThreshold(y, std::vector<float>{0.7f, 0.6f}).threshold,
                    0.61);
-  // Probabilities off the grid: 0 and NaN never succeed, 1 always does.
+  // Probabilities off the grid: 0 and NaN never succeed, 1 and infinity always do.
   const ThresholdChoice ends = ChooseBalancedAccuracyThreshold(
-      std::vector<std::uint8_t>{1, 0, 0}, std::vector<float>{1.0f, 0.0f, std::nanf("")});
+      std::vector<std::uint8_t>{1, 1, 0, 0},
+      std::vector<float>{1.0f, std::numeric_limits<float>::infinity(), 0.0f, std::nanf("")});
   EXPECT_DOUBLE_EQ(ends.balanced_accuracy, 1.0);
   EXPECT_DOUBLE_EQ(ends.threshold, 0.5);
   // One class only, or spans of different sizes: refused.

@@ -96,12 +96,11 @@ ThresholdChoice ChooseBalancedAccuracyThreshold(std::span<const std::uint8_t> la
   // comparison as ComputeGqcnnMetrics (float p against the double threshold).
   std::vector<double> positives(kSteps, 0.0), negatives(kSteps, 0.0);
   for (std::size_t i = 0; i < labels.size(); ++i) {
-    int cleared = 0;  // the highest k with p >= k / kSteps (0: none)
+    int cleared = 0;  // the highest k with p >= k / kSteps (0: below the grid, or NaN)
     const double p = probabilities[i];
-    if (!(p >= 1.0 / kSteps)) {
-      cleared = 0;  // below the grid, or NaN: never "succeeds"
-    } else {
-      cleared = std::min(kSteps - 1, static_cast<int>(std::floor(p * kSteps)));
+    if (p >= 1.0 / kSteps) {
+      // Clamped before the cast: any float, infinity too, lands in the grid.
+      cleared = static_cast<int>(std::min<double>(kSteps - 1, std::floor(p * kSteps)));
       while (cleared < kSteps - 1 && p >= static_cast<double>(cleared + 1) / kSteps) ++cleared;
       while (cleared > 0 && !(p >= static_cast<double>(cleared) / kSteps)) --cleared;
     }
