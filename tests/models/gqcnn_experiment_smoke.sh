@@ -46,10 +46,15 @@ jq -e '[.sets[].planners[].scenes] | all(. == 1)' "$work/out/picks.json" >/dev/n
 [ "$(wc -l < "$work/out/picks.jsonl")" = 12 ] || fail "picks.jsonl: not 12 records"
 jq -s -e 'all(.[]; (.outcome | type == "string") and (.reason | type == "string"))' \
   "$work/out/picks.jsonl" >/dev/null || fail "picks.jsonl: a record without outcome or reason"
-# The same network without each of the policy's checks, beside it on the same scene.
+jq -e '.opening_stroke_m == 0.05' "$work/out/picks.json" >/dev/null ||
+  fail "picks.json: not the datasets' 5 cm gripper by default"
+# The same network without each of the policy's checks, beside it on the same scene, with
+# another gripper.
 "$SOFTGRASP_TRAIN" gqcnn-picks --model "$work/out/models/fractal-030.pt" --clutter-scenes 1 \
   --also-without-contact-check --also-without-clearance-check --out "$work/checks.json" \
-  --records "$work/checks.jsonl" 2>/dev/null
+  --records "$work/checks.jsonl" --stroke-mm 85 2>/dev/null
+jq -e '.opening_stroke_m == 0.085' "$work/checks.json" >/dev/null ||
+  fail "gqcnn-picks --stroke-mm 85 did not set the gripper"
 jq -e '[.sets[0].planners[].planner] == ["fge", "gqcnn:fractal-030",
   "gqcnn:fractal-030:no-contact-check", "gqcnn:fractal-030:no-clearance-check"]' "$work/checks.json" \
   >/dev/null || fail "gqcnn-picks: not the planners without each check"

@@ -187,6 +187,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
   int clutter_scenes = 0;
   long long seed = 0;
   double camera_height_m = 0.70;
+  double stroke_mm = core::Gripper{}.opening_stroke_m * 1000.0;
   std::string out_path;
   std::string records_path;
   const bool without_clearance_check = args.Flag("--also-without-clearance-check");
@@ -195,6 +196,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
   args.Count("--clutter-scenes", &clutter_scenes, 10000);
   args.Int("--seed", 0, cli::kNoLimit, &seed);
   args.Number("--camera-height", cli::Bounds::Closed(0.3, 1.5), &camera_height_m);
+  args.Number("--stroke-mm", cli::Bounds::Closed(20, 150), &stroke_mm);
   args.Text("--out", &out_path);
   args.Text("--records", &records_path);
   if (auto error = args.Finish()) return Fail(error->message);
@@ -250,7 +252,8 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
     if (heldout.empty()) return Fail("no usable mesh in " + meshes_dir);
   }
 
-  core::Gripper gripper;
+  core::Gripper gripper;  // the datasets' (a 5 cm stroke) unless --stroke-mm says otherwise
+  gripper.opening_stroke_m = stroke_mm / 1000.0;
   sim::RenderOptions render;
   render.camera = core::Camera{};  // Primesense-like 640 x 480, fx 525 (the dataset's)
   render.world_from_camera = sim::OverheadCameraPose(camera_height_m);
@@ -258,6 +261,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
 
   json report = {{"models", model_paths},
                  {"camera_height_m", camera_height_m},
+                 {"opening_stroke_m", gripper.opening_stroke_m},
                  {"seed", seed},
                  {"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}}};
   json sets = json::array();

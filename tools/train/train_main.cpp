@@ -59,14 +59,16 @@ constexpr const char* kUsage =
     "  deformability (both target policies) on the same scenes; JSON with 95 % intervals.\n"
     "       softgrasp-train gqcnn-picks --model MODEL [--model MODEL2...] [--meshes DIR]\n"
     "                                [--single-scenes N] [--clutter-scenes N] [--seed S]\n"
-    "                                [--camera-height M] [--also-without-clearance-check]\n"
+    "                                [--camera-height M] [--stroke-mm S]\n"
+    "                                [--also-without-clearance-check]\n"
     "                                [--also-without-contact-check] [--out FILE]\n"
     "                                [--records FILE]\n"
     "  Simulated picks (docs/gqcnn.md): strategy=gqcnn with each model against classic FGE on\n"
     "  the same scenes, single held-out objects (--meshes, rescaled as Dex-Net does) on a\n"
     "  table and validation catalogue clutter in a bin; JSON with 95 % paired intervals.\n"
     "  --records writes one JSON line per scene and planner: the grasp executed, the\n"
-    "  simulator's outcome and its reason.\n";
+    "  simulator's outcome and its reason. --stroke-mm sets the gripper's opening stroke for\n"
+    "  every planner and the simulator (default 50, the datasets' gripper).\n";
 
 int Fail(const std::string& message) {
   std::cerr << "softgrasp-train: " << message << "\n";
