@@ -22,6 +22,18 @@ using testing::LoadSpec;
 using testing::Lower;
 using testing::SchemaValidator;
 
+// The Primesense frame 0 and its intrinsics, then `extra` form fields: the upload every test
+// here sends.
+std::vector<testing::FormPart> PrimesenseUpload(std::vector<testing::FormPart> extra = {}) {
+  std::vector<testing::FormPart> parts{
+      {"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
+       "d.npy"},
+      {"intrinsics", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
+       "p.intr"}};
+  parts.insert(parts.end(), extra.begin(), extra.end());
+  return parts;
+}
+
 TEST(OpenApiContractTest, EveryDocumentedRouteIsServedAndViceVersa) {
   const json spec = LoadSpec();
   std::set<std::pair<std::string, std::string>> documented;
@@ -58,12 +70,7 @@ TEST(OpenApiContractTest, ResponsesMatchTheirSchemas) {
   EXPECT_EQ(validator.Validate(json::parse(info.body), schema_of("/v1/info", "get", "200")),
             std::vector<std::string>{});
 
-  const auto grasps = server.Send(testing::MultipartRequest(
-      "/v1/grasps",
-      {{"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
-        "d.npy"},
-       {"intrinsics", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
-        "p.intr"}}));
+  const auto grasps = server.Send(testing::MultipartRequest("/v1/grasps", PrimesenseUpload()));
   ASSERT_EQ(grasps.status, 200) << grasps.body;
   const json grasps_body = json::parse(grasps.body);
   ASSERT_FALSE(grasps_body["grasps"].empty());
@@ -102,13 +109,6 @@ TEST(OpenApiContractTest, ResponsesMatchTheirSchemas) {
 TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
   const json spec = LoadSpec();
   const SchemaValidator validator(spec);
-  const auto upload = [] {
-    return std::vector<testing::FormPart>{
-        {"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
-         "d.npy"},
-        {"intrinsics",
-         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")), "p.intr"}};
-  };
   const json& error_schema = spec["components"]["schemas"]["Error"];
   testing::RunningServer with_model({}, nullptr, nullptr, testing::ShippedStiffnessModel());
 
@@ -116,7 +116,7 @@ TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
   ASSERT_EQ(info.status, 200);
   EXPECT_EQ(validator.Validate(json::parse(info.body), spec["components"]["schemas"]["Info"]),
             std::vector<std::string>{});
-  const auto grasps = with_model.Send(testing::MultipartRequest("/v1/grasps", upload()));
+  const auto grasps = with_model.Send(testing::MultipartRequest("/v1/grasps", PrimesenseUpload()));
   ASSERT_EQ(grasps.status, 200) << grasps.body;
   const json body = json::parse(grasps.body);
   ASSERT_FALSE(body["grasps"].empty());
@@ -129,7 +129,7 @@ TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
                                                         {"png16", "image/png"},
                                                         {"npy", "application/x-npy"},
                                                         {"color", "image/png"}}) {
-    auto parts = upload();
+    auto parts = PrimesenseUpload();
     parts.push_back({"format", format, ""});
     const auto reply = with_model.Send(testing::MultipartRequest("/v1/stiffness", parts));
     EXPECT_EQ(reply.status, 200) << format;
@@ -142,7 +142,8 @@ TEST(OpenApiContractTest, StiffnessAnswersMatchTheirSchemas) {
   EXPECT_EQ(validator.Validate(json::parse(bad.body), error_schema), std::vector<std::string>{});
 
   testing::RunningServer without_model;
-  const auto unavailable = without_model.Send(testing::MultipartRequest("/v1/stiffness", upload()));
+  const auto unavailable =
+      without_model.Send(testing::MultipartRequest("/v1/stiffness", PrimesenseUpload()));
   EXPECT_EQ(unavailable.status, 503);
   EXPECT_EQ(validator.Validate(json::parse(unavailable.body), error_schema),
             std::vector<std::string>{});
@@ -153,15 +154,6 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
   const json spec = LoadSpec();
   const SchemaValidator validator(spec);
   const json& error_schema = spec["components"]["schemas"]["Error"];
-  const auto upload = [](std::vector<testing::FormPart> extra = {}) {
-    std::vector<testing::FormPart> parts{
-        {"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
-         "d.npy"},
-        {"intrinsics",
-         testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")), "p.intr"}};
-    parts.insert(parts.end(), extra.begin(), extra.end());
-    return parts;
-  };
   testing::RunningServer server;  // no models: the PCL baseline
 
   const auto info = server.Send(testing::RawRequest("GET", "/v1/info"));
@@ -169,7 +161,8 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
             std::vector<std::string>{});
 
   const json& operation = spec["paths"]["/v1/segmentation"]["post"];
-  const auto segmented = server.Send(testing::MultipartRequest("/v1/segmentation", upload()));
+  const auto segmented =
+      server.Send(testing::MultipartRequest("/v1/segmentation", PrimesenseUpload()));
   ASSERT_EQ(segmented.status, 200) << segmented.body;
   const json body = json::parse(segmented.body);
   ASSERT_FALSE(body["instances"].empty());
@@ -184,7 +177,7 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
       std::vector<std::string>{});
   for (const char* format : {"labels", "overlay"}) {
     const auto reply = server.Send(
-        testing::MultipartRequest("/v1/segmentation", upload({{"format", format, ""}})));
+        testing::MultipartRequest("/v1/segmentation", PrimesenseUpload({{"format", format, ""}})));
     EXPECT_EQ(reply.status, 200) << format;
     EXPECT_EQ(reply.header("Content-Type").value_or(""), "image/png") << format;
   }
@@ -192,7 +185,8 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
        std::vector<std::pair<testing::FormPart, int>>{{{"method", "model", ""}, 503},
                                                       {{"format", "deformability", ""}, 503},
                                                       {{"format", "gif", ""}, 400}}) {
-    const auto reply = server.Send(testing::MultipartRequest("/v1/segmentation", upload({extra})));
+    const auto reply =
+        server.Send(testing::MultipartRequest("/v1/segmentation", PrimesenseUpload({extra})));
     EXPECT_EQ(reply.status, status) << extra.name << "=" << extra.data;
     EXPECT_EQ(validator.Validate(json::parse(reply.body), error_schema),
               std::vector<std::string>{});
@@ -202,15 +196,16 @@ TEST(OpenApiContractTest, SegmentationAnswersMatchTheirSchemas) {
   // Grasps with their instances, and with a target.
   for (const auto& extra :
        std::vector<testing::FormPart>{{"instances", "true", ""}, {"target", "1", ""}}) {
-    const auto grasps = server.Send(testing::MultipartRequest("/v1/grasps", upload({extra})));
+    const auto grasps =
+        server.Send(testing::MultipartRequest("/v1/grasps", PrimesenseUpload({extra})));
     ASSERT_EQ(grasps.status, 200) << grasps.body;
     const json grasps_body = json::parse(grasps.body);
     EXPECT_FALSE(grasps_body["segmentation"].is_null());
     EXPECT_EQ(validator.Validate(grasps_body, spec["components"]["schemas"]["GraspResponse"]),
               std::vector<std::string>{});
   }
-  const auto unknown =
-      server.Send(testing::MultipartRequest("/v1/grasps", upload({{"target", "999", ""}})));
+  const auto unknown = server.Send(
+      testing::MultipartRequest("/v1/grasps", PrimesenseUpload({{"target", "999", ""}})));
   EXPECT_EQ(unknown.status, 422);
   EXPECT_EQ(validator.Validate(json::parse(unknown.body), error_schema),
             std::vector<std::string>{});
@@ -230,13 +225,8 @@ TEST(OpenApiContractTest, DeformabilityAnswersMatchTheirSchemas) {
   EXPECT_EQ(validator.Validate(json::parse(info.body), spec["components"]["schemas"]["Info"]),
             std::vector<std::string>{});
   for (const char* policy : {"highest", "least_deformable"}) {
-    const auto grasps = server.Send(testing::MultipartRequest(
-        "/v1/grasps",
-        {{"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
-          "d.npy"},
-         {"intrinsics",
-          testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")), "p.intr"},
-         {"target_policy", policy, ""}}));
+    const auto grasps = server.Send(
+        testing::MultipartRequest("/v1/grasps", PrimesenseUpload({{"target_policy", policy, ""}})));
     ASSERT_EQ(grasps.status, 200) << grasps.body;
     const json body = json::parse(grasps.body);
     EXPECT_EQ(body["strategy"], "deformability");
@@ -258,13 +248,7 @@ TEST(OpenApiContractTest, GqcnnAnswersMatchTheirSchemas) {
   EXPECT_EQ(validator.Validate(json::parse(info.body), spec["components"]["schemas"]["Info"]),
             std::vector<std::string>{});
   const auto grasps = server.Send(testing::MultipartRequest(
-      "/v1/grasps",
-      {{"depth", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/single_depth_0.npy")),
-        "d.npy"},
-       {"intrinsics", testing::ReadFileBytes(testing::TestData("gqcnn/primesense/primesense.intr")),
-        "p.intr"},
-       {"strategy", "gqcnn", ""},
-       {"min_depth_m", "0.6", ""}}));
+      "/v1/grasps", PrimesenseUpload({{"strategy", "gqcnn", ""}, {"min_depth_m", "0.6", ""}})));
   ASSERT_EQ(grasps.status, 200) << grasps.body;
   const json body = json::parse(grasps.body);
   ASSERT_FALSE(body["grasps"].empty());
