@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "service/core/status.h"
-#include "service/mesh/mesh_grasp_analysis.h"
+#include "service/mesh_grasps/mesh_grasp_analysis.h"
 
 namespace softgrasp::sim {
 

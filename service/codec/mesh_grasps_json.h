@@ -17,7 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "service/mesh/mesh_grasp_analysis.h"
+#include "service/mesh_grasps/mesh_grasp_analysis.h"
 
 namespace softgrasp::codec {
 

@@ -156,6 +156,15 @@ FgeMaps ComputeFgeMaps(const Scene& scene, const Camera& camera, const Gripper& 
   return fast.Maps(angle_rad, 0);
 }
 
+cv::Mat1b GraspableSurfaces(const Scene& scene, const Camera& camera, const Gripper& gripper,
+                            const FgeParams& params) {
+  fge_detail::CheckInputs(camera, gripper, params);
+  if (scene.height_m.empty()) return {};
+  return fge_detail::SearchSlices(scene.height_m, scene.contact_allowed,
+                                  fge_detail::PxPerMetre(scene.floor, camera, 0), gripper, params)
+      .graspable;
+}
+
 std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, const Gripper& gripper,
                                    const FgeParams& params) {
   fge_detail::CheckInputs(camera, gripper, params);

@@ -2,6 +2,7 @@
 /// Fast Graspability Evaluation (Domae et al. 2014) for a two-finger gripper, with the
 /// multi-height search of the thesis' clutter experiments. See docs/fge.md.
 
+#include <optional>
 #include <vector>
 
 #include "service/core/depth.h"
@@ -37,7 +38,24 @@ struct FgeMaps {
   cv::Mat1f graspability;  ///< Gaussian-blurred candidate map (A_t > 0 and A_c = 0), [0, 1]
 };
 
-/// Ranked grasps, best first; empty when nothing is graspable.
+/// Why FGE cannot plan with these inputs (kInvalidArgument naming the field: intrinsics not
+/// finite, gripper sizes not positive, search parameters out of range); nullopt when it can.
+/// The planners take valid inputs only: callers that pass on a user's values check them here.
+std::optional<Error> ValidateFgeInputs(const Camera& camera, const Gripper& gripper,
+                                       const FgeParams& params);
+
+/// Where FGE lets fingers make contact on `scene`: surfaces of objects that stand free of the
+/// image border at some height up to the objects' top (their top faces, or the parts of a pile
+/// above where it meets a wall), within scene.contact_allowed. What reaches in from the border and
+/// never stands free of it is an obstacle only: the robot's own fingers in a wrist camera's view,
+/// bin walls, objects cut by the frame. When every object touches the border at every height,
+/// everything allowed counts. The scene's size (empty for an empty scene); 255 = a contact may
+/// lie here.
+cv::Mat1b GraspableSurfaces(const Scene& scene, const Camera& camera, const Gripper& gripper,
+                            const FgeParams& params = {});
+
+/// Ranked grasps, best first; empty when nothing is graspable. @throws std::invalid_argument
+/// for inputs ValidateFgeInputs refuses.
 std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, const Gripper& gripper,
                                    const FgeParams& params = {});
 
@@ -45,10 +63,5 @@ std::vector<Grasp> DetectGraspsFge(const Scene& scene, const Camera& camera, con
 /// images). `contact_height_m` is the slice height above the floor.
 FgeMaps ComputeFgeMaps(const Scene& scene, const Camera& camera, const Gripper& gripper,
                        const FgeParams& params, double angle_rad, double contact_height_m);
-
-/// The same maps by straightforward cv::filter2D with rotated templates. Slow; kept as the
-/// reference for tests and as the benchmark baseline.
-FgeMaps ComputeFgeMapsReference(const Scene& scene, const Camera& camera, const Gripper& gripper,
-                                const FgeParams& params, double angle_rad, double contact_height_m);
 
 }  // namespace softgrasp::core

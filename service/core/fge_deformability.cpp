@@ -26,38 +26,63 @@ constexpr double kTopQuantile = 0.98;
 // (up to 4 image pixels) and the 3-D finger check's margin.
 constexpr double kReachMarginM = 0.01;
 
-void Require(bool ok, const std::string& what) {
-  if (!ok) throw std::invalid_argument("DeformabilityParams: " + what);
+}  // namespace
+
+std::optional<Error> ValidateDeformabilityParams(const DeformabilityParams& p,
+                                                 const Gripper& gripper) {
+  const bool fractions_in_range =
+      std::all_of(p.opening_fractions.begin(), p.opening_fractions.end(),
+                  [](double f) { return f > 0 && f <= 1; });
+  struct Check {
+    bool ok;
+    const char* field;
+    const char* what;
+  };
+  const Check checks[] = {
+      {p.min_target_area_px >= 0 && std::isfinite(p.min_target_area_px), "min_target_area_px",
+       "min_target_area_px (K) must be >= 0"},
+      {p.slice_step_m > 0 && p.slice_step_m <= gripper.finger_length_m, "slice_step_m",
+       "slice_step_m (L) must be > 0 and not exceed the finger length"},
+      {p.num_slices >= 1 && p.num_slices <= 40, "num_slices", "num_slices (M) must be in 1..40"},
+      {p.min_score >= 0 && p.min_score <= 1, "min_score", "min_score (R) must be in [0, 1]"},
+      {p.target_id >= 0, "target_id", "target_id must be >= 0"},
+      {!p.opening_fractions.empty(), "opening_fractions", "opening_fractions must not be empty"},
+      {fractions_in_range, "opening_fractions", "opening_fractions must be in (0, 1]"},
+      {p.min_graspability >= 0 && p.min_graspability <= 1, "min_graspability",
+       "min_graspability must be in [0, 1]"},
+      {std::is_sorted(p.opening_fractions.begin(), p.opening_fractions.end()), "opening_fractions",
+       "opening_fractions must be in increasing order"},
+      {p.stiff_part_fraction >= 0 && p.stiff_part_fraction <= 1, "stiff_part_fraction",
+       "stiff_part_fraction must be in [0, 1]"},
+      {p.min_part_contrast >= 0 && p.min_part_contrast <= 1, "min_part_contrast",
+       "min_part_contrast must be in [0, 1]"},
+      {p.soft_obstacle_threshold >= 0 && std::isfinite(p.soft_obstacle_threshold),
+       "soft_obstacle_threshold", "soft_obstacle_threshold must be >= 0"},
+      {p.max_press_depth_m >= 0 && p.max_press_depth_m <= 1, "max_press_depth_m",
+       "max_press_depth_m must be in [0, 1]"},
+      {p.tie_tolerance >= 0 && std::isfinite(p.tie_tolerance), "tie_tolerance",
+       "tie_tolerance must be >= 0"},
+      {p.max_targets >= 1, "max_targets", "max_targets must be >= 1"},
+      {p.centre_weight >= 0 && std::isfinite(p.centre_weight), "centre_weight",
+       "centre_weight must be >= 0"},
+      {p.deformability_step >= 0 && p.deformability_step <= 1, "deformability_step",
+       "deformability_step must be in [0, 1]"},
+  };
+  for (const Check& c : checks) {
+    if (!c.ok) {
+      return MakeError(ErrorCode::kInvalidArgument, std::string("DeformabilityParams: ") + c.what,
+                       c.field);
+    }
+  }
+  return std::nullopt;
 }
 
+namespace {
+
 void CheckParams(const DeformabilityParams& p, const Gripper& gripper) {
-  Require(p.min_target_area_px >= 0 && std::isfinite(p.min_target_area_px),
-          "min_target_area_px (K) must be >= 0");
-  Require(p.slice_step_m > 0 && p.slice_step_m <= gripper.finger_length_m,
-          "slice_step_m (L) must be > 0 and not exceed the finger length");
-  Require(p.num_slices >= 1 && p.num_slices <= 40, "num_slices (M) must be in 1..40");
-  Require(p.min_score >= 0 && p.min_score <= 1, "min_score (R) must be in [0, 1]");
-  Require(p.target_id >= 0, "target_id must be >= 0");
-  Require(!p.opening_fractions.empty(), "opening_fractions must not be empty");
-  for (double f : p.opening_fractions) {
-    Require(f > 0 && f <= 1, "opening_fractions must be in (0, 1]");
+  if (auto error = ValidateDeformabilityParams(p, gripper)) {
+    throw std::invalid_argument(error->message);
   }
-  Require(p.min_graspability >= 0 && p.min_graspability <= 1, "min_graspability must be in [0, 1]");
-  Require(std::is_sorted(p.opening_fractions.begin(), p.opening_fractions.end()),
-          "opening_fractions must be in increasing order");
-  Require(p.stiff_part_fraction >= 0 && p.stiff_part_fraction <= 1,
-          "stiff_part_fraction must be in [0, 1]");
-  Require(p.min_part_contrast >= 0 && p.min_part_contrast <= 1,
-          "min_part_contrast must be in [0, 1]");
-  Require(p.soft_obstacle_threshold >= 0 && std::isfinite(p.soft_obstacle_threshold),
-          "soft_obstacle_threshold must be >= 0");
-  Require(p.max_press_depth_m >= 0 && p.max_press_depth_m <= 1,
-          "max_press_depth_m must be in [0, 1]");
-  Require(p.tie_tolerance >= 0 && std::isfinite(p.tie_tolerance), "tie_tolerance must be >= 0");
-  Require(p.max_targets >= 1, "max_targets must be >= 1");
-  Require(p.centre_weight >= 0 && std::isfinite(p.centre_weight), "centre_weight must be >= 0");
-  Require(p.deformability_step >= 0 && p.deformability_step <= 1,
-          "deformability_step must be in [0, 1]");
 }
 
 void CheckMaps(const Scene& scene, const ObjectMaps& objects) {

@@ -125,6 +125,12 @@ std::vector<int> OrderTargets(const Scene& scene, const ObjectMaps& objects,
 bool SoftNeighbourInReach(const Scene& scene, const Camera& camera, const Gripper& gripper,
                           const cv::Mat1b& contact, const cv::Mat1b& soft);
 
+/// Why DetectGraspsDeformability cannot plan with these parameters for this gripper
+/// (kInvalidArgument naming the field, e.g. a slice step longer than the fingers); nullopt when it
+/// can.
+std::optional<Error> ValidateDeformabilityParams(const DeformabilityParams& params,
+                                                 const Gripper& gripper);
+
 /// Plans on the targets of OrderTargets (at most max_targets) until one gives grasps. With
 /// kLeastDeformable (and no target_id) it goes on while a later target's touchable part is less
 /// deformable, by more than tie_tolerance, than the best grasp found so far (the first target's

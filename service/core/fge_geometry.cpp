@@ -256,25 +256,53 @@ std::optional<FreeObjects> FindFreeObjects(FreeSpace& free_space, const cv::Mat1
 
 }  // namespace
 
+}  // namespace softgrasp::core::fge_detail
+
+namespace softgrasp::core {
+
+std::optional<Error> ValidateFgeInputs(const Camera& camera, const Gripper& gripper,
+                                       const FgeParams& params) {
+  struct Check {
+    bool ok;
+    const char* field;
+    std::string what;
+  };
+  const Check checks[] = {
+      {std::isfinite(camera.fx) && camera.fx > 0 && std::isfinite(camera.fy) && camera.fy > 0 &&
+           std::isfinite(camera.cx) && std::isfinite(camera.cy),
+       "camera", "camera intrinsics must be finite with fx, fy > 0"},
+      {gripper.opening_stroke_m > 0 && gripper.finger_width_m > 0 &&
+           gripper.finger_thickness_m > 0 && gripper.finger_length_m > 0,
+       "gripper", "gripper sizes must be > 0"},
+      {params.num_angles >= 1, "num_angles", "num_angles must be >= 1"},
+      {params.num_height_steps >= 1 && params.num_height_steps <= kMaxHeightSteps,
+       "num_height_steps",
+       "num_height_steps must be in [1, " + std::to_string(kMaxHeightSteps) + "]"},
+      {params.height_step_m > 0, "height_step_m", "height_step_m must be > 0"},
+      {params.grip_depth_m >= 0, "grip_depth_m", "grip_depth_m must be >= 0"},
+      {params.grip_depth_m <= gripper.finger_length_m, "grip_depth_m",
+       "grip_depth_m must not exceed the finger length"},
+      {params.min_object_area_px >= 0, "min_object_area_px", "min_object_area_px must be >= 0"},
+      {std::isfinite(params.floor_clearance_m), "floor_clearance_m",
+       "floor_clearance_m must be finite"},
+      {params.seam_step_m > 0, "seam_step_m", "seam_step_m must be > 0"},
+      {params.top_k >= 1, "top_k", "top_k must be >= 1"},
+      {params.nms_radius_px >= 0, "nms_radius_px", "nms_radius_px must be >= 0"},
+  };
+  for (const Check& c : checks) {
+    if (!c.ok) return MakeError(ErrorCode::kInvalidArgument, "FGE: " + c.what, c.field);
+  }
+  return std::nullopt;
+}
+
+}  // namespace softgrasp::core
+
+namespace softgrasp::core::fge_detail {
+
 void CheckInputs(const Camera& camera, const Gripper& gripper, const FgeParams& params) {
-  Require(std::isfinite(camera.fx) && camera.fx > 0 && std::isfinite(camera.fy) && camera.fy > 0 &&
-              std::isfinite(camera.cx) && std::isfinite(camera.cy),
-          "camera intrinsics must be finite with fx, fy > 0");
-  Require(gripper.opening_stroke_m > 0 && gripper.finger_width_m > 0 &&
-              gripper.finger_thickness_m > 0 && gripper.finger_length_m > 0,
-          "gripper sizes must be > 0");
-  Require(params.num_angles >= 1, "num_angles must be >= 1");
-  Require(params.num_height_steps >= 1 && params.num_height_steps <= kMaxHeightSteps,
-          "num_height_steps must be in [1, " + std::to_string(kMaxHeightSteps) + "]");
-  Require(params.height_step_m > 0, "height_step_m must be > 0");
-  Require(params.grip_depth_m >= 0, "grip_depth_m must be >= 0");
-  Require(params.grip_depth_m <= gripper.finger_length_m,
-          "grip_depth_m must not exceed the finger length");
-  Require(params.min_object_area_px >= 0, "min_object_area_px must be >= 0");
-  Require(std::isfinite(params.floor_clearance_m), "floor_clearance_m must be finite");
-  Require(params.seam_step_m > 0, "seam_step_m must be > 0");
-  Require(params.top_k >= 1, "top_k must be >= 1");
-  Require(params.nms_radius_px >= 0, "nms_radius_px must be >= 0");
+  if (auto error = ValidateFgeInputs(camera, gripper, params)) {
+    throw std::invalid_argument(error->message);
+  }
 }
 
 double FloorDepthOnAxisM(const Plane& floor) {

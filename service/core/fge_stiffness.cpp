@@ -22,13 +22,8 @@ using fge_detail::SimilarAngle;
 using fge_detail::Slice;
 
 void CheckParams(const Camera& camera, const Gripper& gripper, const StiffnessFgeParams& params) {
-  fge_detail::CheckInputs(camera, gripper, params.fge);
-  if (!(params.centre_weight >= 0) || params.candidate_step_px < 1 ||
-      params.candidate_step_px > 16 || params.max_slice_batches < 0 ||
-      !(params.key_step >= 0 && params.key_step <= 1)) {
-    throw std::invalid_argument(
-        "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16, "
-        "max_slice_batches >= 0, key_step in [0, 1]");
+  if (auto error = ValidateStiffnessFgeInputs(camera, gripper, params)) {
+    throw std::invalid_argument(error->message);
   }
 }
 
@@ -286,6 +281,20 @@ std::vector<Grasp> DetectGraspsStiffness(const Scene& scene, const Camera& camer
     if (static_cast<int>(grasps.size()) >= fp.top_k) break;
   }
   return grasps;
+}
+
+std::optional<Error> ValidateStiffnessFgeInputs(const Camera& camera, const Gripper& gripper,
+                                                const StiffnessFgeParams& params) {
+  if (auto error = ValidateFgeInputs(camera, gripper, params.fge)) return error;
+  if (!(params.centre_weight >= 0) || params.candidate_step_px < 1 ||
+      params.candidate_step_px > 16 || params.max_slice_batches < 0 ||
+      !(params.key_step >= 0 && params.key_step <= 1)) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "StiffnessFgeParams: centre_weight must be >= 0, candidate_step_px in 1..16, "
+                     "max_slice_batches >= 0, key_step in [0, 1]",
+                     "stiffness");
+  }
+  return std::nullopt;
 }
 
 double ContactMeanStiffness(const Scene& scene, const cv::Mat1f& stiffness_map,

@@ -31,6 +31,11 @@ struct StiffnessFgeParams {
   int max_slice_batches = 0;
 };
 
+/// Why DetectGraspsStiffness cannot plan with these inputs (ValidateFgeInputs' reasons, and its
+/// own parameters out of range: field "stiffness"); nullopt when it can.
+std::optional<Error> ValidateStiffnessFgeInputs(const Camera& camera, const Gripper& gripper,
+                                                const StiffnessFgeParams& params);
+
 /// Ranked grasps, best first, each with `mean_stiffness` = mean of `stiffness_map` over the
 /// contact surface I_t inside its closing region T_t (A_st / A_t). `score` stays FGE's
 /// graspability. `stiffness_map`: the scene's size, values in [0, 1] (e.g.

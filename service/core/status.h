@@ -8,22 +8,20 @@
 
 namespace softgrasp::core {
 
-/// What kind of expected failure happened. `rest/` maps each code to one HTTP status.
+/// What kind of expected failure happened, in the caller's terms; each front end (the REST API's
+/// rest::HttpStatusFor, the command-line tools' exit codes) maps the kinds to its own.
 enum class ErrorCode {
-  kInvalidArgument,       ///< a parameter or field is malformed or out of range (400)
-  kUnsupportedMediaType,  ///< the bytes are not a format we decode (415)
-  kPayloadTooLarge,       ///< too many pixels / bytes for the configured limits (413)
-  kUnprocessable,         ///< well-formed but cannot be used, e.g. an all-missing depth image (422)
-  kNotFound,              ///< (404)
-  kInternal,              ///< a bug on our side (500)
-  kUnauthorized,          ///< no or malformed credentials (401)
-  kForbidden,             ///< credentials given but not accepted (403)
-  kConflict,              ///< clashes with existing state, e.g. an id reused for another body (409)
-  kUnavailable,           ///< a needed party is not there now (no robot alive); retry later (503)
+  kInvalidArgument,    ///< a parameter or field is malformed or out of range
+  kUnsupportedFormat,  ///< the bytes are not a format we decode
+  kTooLarge,           ///< too many pixels, points, triangles or bytes for the configured limits
+  kUnprocessable,      ///< well-formed but cannot be used, e.g. an all-missing depth image
+  kNotFound,           ///< what was named does not exist
+  kInternal,           ///< a bug on our side
+  kUnauthenticated,    ///< no or malformed credentials
+  kPermissionDenied,   ///< credentials given but not accepted
+  kConflict,           ///< clashes with existing state, e.g. an id reused for another body
+  kUnavailable,        ///< a needed party is not there now (no robot alive); retry later
 };
-
-/// Stable snake_case name of a code, used in JSON error bodies.
-const char* ErrorCodeName(ErrorCode code);
 
 struct Error {
   ErrorCode code = ErrorCode::kInternal;

@@ -5,7 +5,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "service/core/fge_deformability.h"
 #include "service/core/fge_stiffness.h"
+#include "service/engine/contact_region.h"
 
 namespace softgrasp::engine {
 namespace {
@@ -106,10 +108,30 @@ PlanError PlanDeformability(const PlanContext& c, Plan* plan) {
   return std::nullopt;
 }
 
+// Why a strategy cannot plan with these options (its own parameters; FGE's search parameters
+// and the gripper are checked for every strategy).
+PlanError ValidateNothing(const PlanOptions&, const core::Camera&) { return std::nullopt; }
+
+PlanError ValidateGqcnn(const PlanOptions& o, const core::Camera&) {
+  return gqcnn::ValidatePolicyParams(o.gqcnn);
+}
+
+PlanError ValidateStiffness(const PlanOptions& o, const core::Camera& camera) {
+  core::StiffnessFgeParams params = o.stiffness;
+  params.fge = o.fge;
+  return core::ValidateStiffnessFgeInputs(camera, o.gripper, params);
+}
+
+PlanError ValidateDeformability(const PlanOptions& o, const core::Camera&) {
+  return core::ValidateDeformabilityParams(o.deformability, o.gripper);
+}
+
 using Planner = PlanError (*)(const PlanContext&, Plan*);
+using Validator = PlanError (*)(const PlanOptions&, const core::Camera&);
 
 struct Registered {
   StrategyInfo info;
+  Validator validate;
   Planner plan;
 };
 
@@ -117,10 +139,14 @@ struct Registered {
 // last one the loaded models serve).
 const std::vector<Registered>& Registry() {
   static const std::vector<Registered> registry = {
-      {{Strategy::kFge, "fge", false, false, false, false}, &PlanFge},
-      {{Strategy::kGqcnn, "gqcnn", false, false, true, false}, &PlanGqcnn},
-      {{Strategy::kStiffness, "stiffness", true, false, false, false}, &PlanStiffness},
-      {{Strategy::kDeformability, "deformability", false, true, false, true}, &PlanDeformability},
+      {{Strategy::kFge, "fge", false, false, false, false, true}, &ValidateNothing, &PlanFge},
+      {{Strategy::kGqcnn, "gqcnn", false, false, true, false, false}, &ValidateGqcnn, &PlanGqcnn},
+      {{Strategy::kStiffness, "stiffness", true, false, false, false, true},
+       &ValidateStiffness,
+       &PlanStiffness},
+      {{Strategy::kDeformability, "deformability", false, true, false, true, true},
+       &ValidateDeformability,
+       &PlanDeformability},
   };
   return registry;
 }
@@ -244,16 +270,14 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
   if (!(std::isfinite(options.min_depth_m) && options.min_depth_m >= 0)) {
     return Invalid("min_depth_m must be finite and >= 0", "min_depth_m");
   }
-  if (info.needs_gqcnn_model) {
-    if (auto error = gqcnn::ValidatePolicyParams(options.gqcnn)) return *error;
-  }
+  if (auto error = core::ValidateFgeInputs(camera, options.gripper, options.fge)) return *error;
+  if (auto error = strategy.validate(options, camera)) return *error;
 
   Plan plan;
   const auto preprocess_start = Clock::now();
   auto preprocessed = core::Preprocess(depth, camera);
   if (!preprocessed.ok()) return preprocessed.error();
   plan.scene = std::move(preprocessed).value();
-  core::RestrictContact(plan.scene, options.region_of_interest, options.min_depth_m);
   plan.timing.preprocess_ms = MillisecondsSince(preprocess_start);
 
   // Instances only when something uses them: segmenting is not free.
@@ -274,10 +298,23 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
     plan.target_not_found = target_id == 0;
   }
   plan.target_id = target_id;
-  if (target_id > 0 && !info.plans_target) {
-    // Contacts on the target only; every other object stays an obstacle.
-    core::RestrictContact(plan.scene, plan.instances->labels == target_id, options.min_depth_m);
+  // One contact region for every strategy; a target restricts contacts to that instance (every
+  // other object stays an obstacle) unless the strategy plans its own target.
+  const auto region_start = Clock::now();
+  const cv::Mat1b region = ApplyContactRegion(
+      &plan.scene, camera, options.gripper, options.fge,
+      {options.region_of_interest, options.min_depth_m,
+       target_id > 0 && !info.plans_target ? cv::Mat1b(plan.instances->labels == target_id)
+                                           : cv::Mat1b(),
+       !info.finds_free_surfaces});
+  core::Scene planner_scene_storage;
+  const core::Scene* planner_scene = &plan.scene;
+  if (!region.empty()) {
+    planner_scene_storage = plan.scene;
+    planner_scene_storage.contact_allowed = region;
+    planner_scene = &planner_scene_storage;
   }
+  plan.timing.preprocess_ms += MillisecondsSince(region_start);
 
   const auto stiffness_start = Clock::now();
   if (given_map) {
@@ -290,14 +327,17 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
 
   if (options.plan && !plan.target_not_found) {
     const auto detect_start = Clock::now();
-    const PlanContext context{models,   plan.scene,     camera,
+    const PlanContext context{models,   *planner_scene, camera,
                               options,  plan.stiffness, plan.instances ? &*plan.instances : nullptr,
                               target_id};
-    try {
-      if (auto error = strategy.plan(context, &plan)) return *error;
-    } catch (const std::invalid_argument& e) {
-      // Options the planner refuses (e.g. a slice step longer than the fingers).
-      return Invalid(e.what(), "options");
+    if (auto error = strategy.plan(context, &plan)) return *error;
+    // What a planner given the region as its mask proposes outside it is not a grasp (a planner
+    // that samples edge pairs can still close on a finger's tip beside allowed pixels). FGE's
+    // planners keep their contact surfaces on the free surfaces by construction.
+    if (planner_scene != &plan.scene) {
+      std::erase_if(plan.grasps, [&](const PlannedGrasp& g) {
+        return !ClosesInRegion(plan.scene, region, g.grasp);
+      });
     }
     if (plan.instances) {
       const Instances& in = *plan.instances;

@@ -57,6 +57,10 @@ struct StrategyInfo {
   /// Chooses and plans its own target (a requested target is its input); for the others a
   /// target restricts contacts to that instance and every other object stays an obstacle.
   bool plans_target;
+  /// Keeps its contacts on the surfaces that stand free of the image border itself, by FGE's
+  /// search on the scene's contact mask (contact_region.h); the others get the whole contact
+  /// region as their scene's mask.
+  bool finds_free_surfaces;
 };
 
 /// Every strategy, in order of preference: the default is the last one the loaded models serve.

@@ -80,11 +80,6 @@ int InstanceAt(const cv::Mat1w& labels, double u_px, double v_px) {
   const int v = static_cast<int>(std::lround(std::clamp(v_px, 0.0, labels.rows - 1.0)));
   return labels(v, u);
 }
-
-bool HasInstance(const cv::Mat1w& labels, int id) {
-  return id > 0 && !labels.empty() && cv::countNonZero(labels == id) > 0;
-}
-
 core::Result<Instances> InstancesForPlan(const InstanceRequest& request, const core::Scene& scene,
                                          const core::Camera& camera,
                                          const models::SegmentationModel* model) {

@@ -87,8 +87,4 @@ core::Result<Instances> InstancesForPlan(const InstanceRequest& request, const c
 
 /// The instance id under pixel (u, v) (rounded, clamped into the image), 0 = none.
 int InstanceAt(const cv::Mat1w& labels, double u_px, double v_px);
-
-/// Whether `id` (> 0) labels at least one pixel.
-bool HasInstance(const cv::Mat1w& labels, int id);
-
 }  // namespace softgrasp::engine

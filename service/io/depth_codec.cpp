@@ -33,9 +33,9 @@ std::optional<core::Error> CheckImageSize(std::int64_t height, std::int64_t widt
   constexpr std::int64_t kMaxSide = std::numeric_limits<int>::max();
   // height * width <= max_pixels  <=>  height <= max_pixels / width (no overflow).
   if (height > kMaxSide || width > kMaxSide || height > max_pixels / width) {
-    return DepthError(core::ErrorCode::kPayloadTooLarge,
-                      std::string(what) + " image of " + size + " pixels exceeds the limit of " +
-                          std::to_string(max_pixels) + " pixels");
+    return DepthError(core::ErrorCode::kTooLarge, std::string(what) + " image of " + size +
+                                                      " pixels exceeds the limit of " +
+                                                      std::to_string(max_pixels) + " pixels");
   }
   return std::nullopt;
 }
@@ -112,10 +112,10 @@ core::Result<DepthFormat> SniffDepthFormat(std::string_view bytes) {
     if (StartsWith(bytes, magic)) return DepthFormat::kTiff;
   }
   if (bytes.empty()) {
-    return detail::DepthError(core::ErrorCode::kUnsupportedMediaType, "the depth upload is empty");
+    return detail::DepthError(core::ErrorCode::kUnsupportedFormat, "the depth upload is empty");
   }
   return detail::DepthError(
-      core::ErrorCode::kUnsupportedMediaType,
+      core::ErrorCode::kUnsupportedFormat,
       "unrecognised depth format: expected .npy (float32, float64 or uint16), 16-bit PNG or "
       "32-bit float TIFF");
 }

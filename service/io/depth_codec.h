@@ -21,15 +21,15 @@ struct DepthDecodeOptions {
   std::int64_t max_pixels = 4096 * 4096;  ///< larger images are refused before decoding (413)
 };
 
-/// Recognises the format from the magic bytes. kUnsupportedMediaType when none matches.
+/// Recognises the format from the magic bytes. kUnsupportedFormat when none matches.
 core::Result<DepthFormat> SniffDepthFormat(std::string_view bytes);
 
 /// Decodes .npy (shape (H,W) or (H,W,1), either byte order; float32 or float64 in metres, or
 /// uint16 counts x png_unit_m), 16-bit PNG (counts x png_unit_m), or 32-bit float TIFF in metres.
 /// 0 and NaN (and inf, negative) become NaN.
-/// Errors: kUnsupportedMediaType (unknown format, wrong dtype or bit depth), kInvalidArgument
+/// Errors: kUnsupportedFormat (unknown format, wrong dtype or bit depth), kInvalidArgument
 /// (corrupt or truncated file, zero-size image, a median reading over 100 m: millimetres read as
-/// metres), kPayloadTooLarge (over max_pixels); the message says which, field = "depth"
+/// metres), kTooLarge (over max_pixels); the message says which, field = "depth"
 /// ("png_unit_m" for a bad unit).
 core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
                                            const DepthDecodeOptions& options = {});
@@ -37,8 +37,8 @@ core::Result<core::DepthImage> DecodeDepth(std::string_view bytes,
 /// Decodes a region-of-interest mask (GQ-CNN's `segmask` convention): a PNG of any bit depth and
 /// colour type (grey, grey+alpha, RGB, RGBA, palette; interlaced or not) whose pixel is allowed
 /// (255) when any colour sample is non-zero; alpha is ignored. Errors as DecodeDepth's
-/// (kUnsupportedMediaType for a file that is not a PNG, kInvalidArgument when corrupt or
-/// truncated, kPayloadTooLarge over max_pixels), with field = "segmask".
+/// (kUnsupportedFormat for a file that is not a PNG, kInvalidArgument when corrupt or
+/// truncated, kTooLarge over max_pixels), with field = "segmask".
 core::Result<cv::Mat1b> DecodeMask(std::string_view bytes, std::int64_t max_pixels);
 
 /// Parses camera intrinsics JSON in the layout of GQ-CNN's `.intr` ({"_fx", "_fy", "_cx", "_cy",

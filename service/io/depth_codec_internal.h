@@ -17,7 +17,7 @@ namespace softgrasp::io::detail {
 core::Error DepthError(core::ErrorCode code, std::string message);
 
 /// Refuses zero-size images (kInvalidArgument) and images over `max_pixels` or too large for
-/// cv::Mat (kPayloadTooLarge). `what` names the format in the message, e.g. "NPY".
+/// cv::Mat (kTooLarge). `what` names the format in the message, e.g. "NPY".
 std::optional<core::Error> CheckImageSize(std::int64_t height, std::int64_t width,
                                           std::int64_t max_pixels, std::string_view what);
 

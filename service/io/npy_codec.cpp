@@ -88,7 +88,7 @@ class NpyHeaderParser {
 
   std::optional<core::Error> ParseDescr(std::string& descr) {
     if (Peek() == '[') {
-      return DepthError(ErrorCode::kUnsupportedMediaType,
+      return DepthError(ErrorCode::kUnsupportedFormat,
                         std::string("NPY structured dtypes are not supported; ") + kAcceptedDtypes);
     }
     auto value = ParseString();
@@ -192,7 +192,7 @@ core::Result<NpyLayout> ReadLayout(std::string_view bytes) {
   const int major = static_cast<unsigned char>(bytes[kMagicSize]);
   const int minor = static_cast<unsigned char>(bytes[kMagicSize + 1]);
   if (major < 1 || major > 3 || minor != 0) {
-    return DepthError(ErrorCode::kUnsupportedMediaType,
+    return DepthError(ErrorCode::kUnsupportedFormat,
                       "NPY format version " + std::to_string(major) + "." + std::to_string(minor) +
                           " is not supported; expected 1.0, 2.0 or 3.0");
   }
@@ -236,8 +236,8 @@ core::Result<Dtype> CheckDtype(const std::string& descr) {
     if (kind == "f8") return Dtype{8, big, false};
     if (kind == "u2") return Dtype{2, big, true};
   }
-  return DepthError(ErrorCode::kUnsupportedMediaType, "NPY dtype '" + detail::Printable(descr) +
-                                                          "' is not supported; " + kAcceptedDtypes);
+  return DepthError(ErrorCode::kUnsupportedFormat, "NPY dtype '" + detail::Printable(descr) +
+                                                       "' is not supported; " + kAcceptedDtypes);
 }
 
 /// (H, W) or (H, W, 1), within max_pixels; returns the size as (rows, cols).
@@ -245,7 +245,7 @@ core::Result<cv::Size> CheckShape(const std::vector<std::int64_t>& shape, std::i
   const bool image_shape = shape.size() == 2 || (shape.size() == 3 && shape[2] == 1);
   if (!image_shape) {
     const bool empty = shape.size() == 3 && shape[2] == 0;
-    return DepthError(empty ? ErrorCode::kInvalidArgument : ErrorCode::kUnsupportedMediaType,
+    return DepthError(empty ? ErrorCode::kInvalidArgument : ErrorCode::kUnsupportedFormat,
                       "NPY shape " + ShapeText(shape) + " is not a depth image; expected (H, W) " +
                           "or (H, W, 1)");
   }

@@ -82,7 +82,7 @@ core::Result<PngHeader> ReadIhdr(std::string_view bytes) {
 
 std::optional<core::Error> CheckHeader(const PngHeader& header, std::int64_t max_pixels) {
   if (header.bit_depth != 16 || header.color_type != kColorGray) {
-    return DepthError(ErrorCode::kUnsupportedMediaType,
+    return DepthError(ErrorCode::kUnsupportedFormat,
                       "PNG depth must be 16-bit single channel (got " +
                           std::to_string(header.bit_depth) + "-bit " +
                           ColorTypeName(header.color_type) + ")");
@@ -198,7 +198,7 @@ bool ReadMaskRows(png_structp png, png_infop info, const PngHeader& header, png_
 core::Result<cv::Mat1b> DecodeMask(std::string_view bytes, std::int64_t max_pixels) {
   if (bytes.size() < kSignatureSize ||
       png_sig_cmp(reinterpret_cast<png_const_bytep>(bytes.data()), 0, kSignatureSize) != 0) {
-    return MaskError(DepthError(ErrorCode::kUnsupportedMediaType, "the mask must be a PNG"));
+    return MaskError(DepthError(ErrorCode::kUnsupportedFormat, "the mask must be a PNG"));
   }
   const auto header = ReadIhdr(bytes);
   if (!header) return MaskError(header.error());

@@ -128,7 +128,7 @@ std::optional<core::Error> CheckSampleLayout(TIFF* tif) {
   TIFFGetFieldDefaulted(tif, TIFFTAG_SAMPLESPERPIXEL, &samples);
   TIFFGetFieldDefaulted(tif, TIFFTAG_SAMPLEFORMAT, &format);
   if (bits == 32 && samples == 1 && format == SAMPLEFORMAT_IEEEFP) return std::nullopt;
-  return DepthError(ErrorCode::kUnsupportedMediaType,
+  return DepthError(ErrorCode::kUnsupportedFormat,
                     "TIFF depth must be 32-bit float with one sample per pixel (got " +
                         std::to_string(bits) + "-bit " + SampleFormatName(format) + ", " +
                         std::to_string(samples) + " sample(s) per pixel)");

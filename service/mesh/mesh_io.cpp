@@ -102,7 +102,7 @@ core::Result<MeshFormat> SniffMeshFormat(std::string_view bytes) {
   } else if (bytes.size() >= 84) {
     return MeshFormat::kStlBinary;  // binary data with a wrong count: the reader says so
   }
-  return core::MakeError(core::ErrorCode::kUnsupportedMediaType,
+  return core::MakeError(core::ErrorCode::kUnsupportedFormat,
                          "not a mesh format we read (OBJ, PLY, STL)", "mesh");
 }
 

@@ -41,20 +41,20 @@ std::string WriteStl(const TriangleMesh& mesh, Encoding encoding);
 std::string WriteMesh(const TriangleMesh& mesh, MeshFormat format);
 
 struct MeshReadOptions {
-  std::int64_t max_vertices = 5000000;  ///< more (declared or found) -> kPayloadTooLarge
+  std::int64_t max_vertices = 5000000;  ///< more (declared or found) -> kTooLarge
   std::int64_t max_faces = 10000000;    ///< triangles after splitting polygons, likewise
 };
 
 /// Recognises the format from the content: "ply" magic (and its format line), a binary STL whose
 /// size matches its triangle count, "solid ... facet" text, OBJ keywords, else other binary data
-/// of at least 84 bytes as a (broken) binary STL. kUnsupportedMediaType when none fits.
+/// of at least 84 bytes as a (broken) binary STL. kUnsupportedFormat when none fits.
 core::Result<MeshFormat> SniffMeshFormat(std::string_view bytes);
 
 /// Decodes any of the formats (sniffed). Polygons are split into triangle fans. STL vertices are
 /// welded when their float32 coordinates are exactly equal, numbered in order of first
-/// appearance. Errors (field "mesh"): kUnsupportedMediaType (unknown format), kInvalidArgument
+/// appearance. Errors (field "mesh"): kUnsupportedFormat (unknown format), kInvalidArgument
 /// (malformed, truncated, count mismatch, index out of range, NaN/inf coordinate),
-/// kPayloadTooLarge (over the limits), kUnprocessable (no faces).
+/// kTooLarge (over the limits), kUnprocessable (no faces).
 core::Result<TriangleMesh> ReadMesh(std::string_view bytes, const MeshReadOptions& options = {});
 
 }  // namespace softgrasp::mesh

@@ -74,7 +74,7 @@ core::Error Malformed(const std::string& what) {
   return core::MakeError(core::ErrorCode::kInvalidArgument, what, "mesh");
 }
 core::Error TooLarge(const std::string& what) {
-  return core::MakeError(core::ErrorCode::kPayloadTooLarge, what, "mesh");
+  return core::MakeError(core::ErrorCode::kTooLarge, what, "mesh");
 }
 
 bool IsSpace(char c) {

@@ -850,13 +850,13 @@ core::Result<PreparedMesh> PrepareMesh(TriangleMesh mesh, const PrepareOptions& 
   }
   const TriangleMesh& in = mesh;
   if (static_cast<std::int64_t>(in.faces.size()) > options.max_triangles) {
-    return MakeError(ErrorCode::kPayloadTooLarge,
+    return MakeError(ErrorCode::kTooLarge,
                      "the mesh has " + std::to_string(in.faces.size()) + " triangles; at most " +
                          std::to_string(options.max_triangles) + " are accepted",
                      "mesh");
   }
   if (in.vertices.size() > static_cast<std::size_t>(INT_MAX)) {
-    return MakeError(ErrorCode::kPayloadTooLarge, "the mesh has too many vertices", "mesh");
+    return MakeError(ErrorCode::kTooLarge, "the mesh has too many vertices", "mesh");
   }
   if (in.faces.empty()) return Refuse("the mesh has no triangles");
   const auto nv = static_cast<int>(in.vertices.size());

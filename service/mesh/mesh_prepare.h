@@ -41,7 +41,7 @@ struct PrepareOptions {
   /// scale the mesh about the origin so that its smallest principal extent is this many metres
   /// (Dex-Net: 0.04). Finite and > 0, else kInvalidArgument (field "rescale").
   std::optional<double> rescale_min_extent_m;
-  /// More input triangles -> kPayloadTooLarge. Counted before any repair.
+  /// More input triangles -> kTooLarge. Counted before any repair.
   std::int64_t max_triangles = 200000;
   /// Size limits on the prepared mesh, in metres (after unit and rescale): smallest principal
   /// extent at least min_extent_m, largest at most max_extent_m, else kUnprocessable. They catch
@@ -119,7 +119,7 @@ struct PreparedMesh {
 
 /// Repairs, checks and scales `mesh` (coordinates in file units). Errors (field "mesh" unless
 /// said): kInvalidArgument for a bad unit_scale_m ("unit") or rescale_min_extent_m ("rescale"),
-/// a vertex index out of range or a non-finite coordinate (as ReadMesh); kPayloadTooLarge for
+/// a vertex index out of range or a non-finite coordinate (as ReadMesh); kTooLarge for
 /// more than max_triangles triangles; kUnprocessable for a mesh that decodes but cannot be
 /// analysed: no faces left, not closed (beyond the holes filled), not 2-manifold, not orientable,
 /// separate pieces, no volume, too small or too large, zero-area faces that cannot be flipped away,

@@ -518,7 +518,7 @@ http::Response Fractals(const http::Request& request, const config::ServiceConfi
   const auto start = Clock::now();
   const std::string content_type(request.header("Content-Type").value_or(""));
   if (!request.body.empty() && content_type.rfind("application/json", 0) != 0) {
-    return ErrorToResponse(core::MakeError(core::ErrorCode::kUnsupportedMediaType,
+    return ErrorToResponse(core::MakeError(core::ErrorCode::kUnsupportedFormat,
                                            "send the parameters as application/json",
                                            "Content-Type"));
   }
@@ -581,35 +581,47 @@ http::Response WebPage(const http::StaticFiles& files, const http::Request& requ
 
 }  // namespace
 
-int HttpStatusFor(core::ErrorCode code) {
+namespace {
+
+// Each kind of failure as an HTTP status and the stable name error bodies carry.
+struct HttpError {
+  int status;
+  const char* name;
+};
+
+HttpError HttpErrorFor(core::ErrorCode code) {
   switch (code) {
     case core::ErrorCode::kInvalidArgument:
-      return 400;
-    case core::ErrorCode::kUnsupportedMediaType:
-      return 415;
-    case core::ErrorCode::kPayloadTooLarge:
-      return 413;
+      return {400, "invalid_argument"};
+    case core::ErrorCode::kUnsupportedFormat:
+      return {415, "unsupported_media_type"};
+    case core::ErrorCode::kTooLarge:
+      return {413, "payload_too_large"};
     case core::ErrorCode::kUnprocessable:
-      return 422;
+      return {422, "unprocessable"};
     case core::ErrorCode::kNotFound:
-      return 404;
+      return {404, "not_found"};
     case core::ErrorCode::kInternal:
-      return 500;
-    case core::ErrorCode::kUnauthorized:
-      return 401;
-    case core::ErrorCode::kForbidden:
-      return 403;
+      return {500, "internal"};
+    case core::ErrorCode::kUnauthenticated:
+      return {401, "unauthorized"};
+    case core::ErrorCode::kPermissionDenied:
+      return {403, "forbidden"};
     case core::ErrorCode::kConflict:
-      return 409;
+      return {409, "conflict"};
     case core::ErrorCode::kUnavailable:
-      return 503;
+      return {503, "service_unavailable"};
   }
-  return 500;
+  return {500, "internal"};
 }
 
+}  // namespace
+
+int HttpStatusFor(core::ErrorCode code) { return HttpErrorFor(code).status; }
+
 http::Response ErrorToResponse(const core::Error& error) {
-  return http::ErrorResponse(HttpStatusFor(error.code), core::ErrorCodeName(error.code),
-                             error.message, error.field);
+  const HttpError http = HttpErrorFor(error.code);
+  return http::ErrorResponse(http.status, http.name, error.message, error.field);
 }
 
 http::Router BuildRouter(const config::ServiceConfig& config) {

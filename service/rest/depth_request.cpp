@@ -65,7 +65,7 @@ core::Result<RequestFields> CollectFields(const http::Request& request) {
              LooksLikeUntypedDepth(content_type, request.body)) {
     fields.depth_bytes = request.body;
   } else if (!request.body.empty() || !content_type.empty()) {
-    return MakeError(ErrorCode::kUnsupportedMediaType,
+    return MakeError(ErrorCode::kUnsupportedFormat,
                      "send the depth image as multipart/form-data (part 'depth') or as a raw body "
                      "with Content-Type application/octet-stream, application/x-npy, image/png "
                      "or image/tiff; got '" +
@@ -275,7 +275,7 @@ core::Result<cv::Mat1w> DecodeLabels(const std::string& bytes, const config::Ser
   auto format = io::SniffDepthFormat(bytes);
   if (!format.ok()) return relabel(format.error());
   if (format.value() != io::DepthFormat::kPng16) {
-    return MakeError(ErrorCode::kUnsupportedMediaType,
+    return MakeError(ErrorCode::kUnsupportedFormat,
                      "labels must be a 16-bit PNG (POST /v1/segmentation?format=labels), got " +
                          std::string(io::DepthFormatName(format.value())),
                      "labels");

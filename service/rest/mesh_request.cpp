@@ -100,7 +100,7 @@ core::Result<std::pair<FieldValues, std::string>> Collect(const http::Request& r
       }
     }
   } else if (content_type.rfind("application/json", 0) == 0) {
-    return MakeError(ErrorCode::kUnsupportedMediaType,
+    return MakeError(ErrorCode::kUnsupportedFormat,
                      "send the mesh file (OBJ, PLY or STL) as the raw body or as the "
                      "multipart/form-data part 'mesh'; got '" +
                          content_type + "'",

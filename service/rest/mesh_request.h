@@ -8,7 +8,7 @@
 #include "service/config/config.h"
 #include "service/core/status.h"
 #include "service/http/message.h"
-#include "service/mesh/mesh_grasp_analysis.h"
+#include "service/mesh_grasps/mesh_grasp_analysis.h"
 #include "service/rest/form_fields.h"
 
 namespace softgrasp::rest {

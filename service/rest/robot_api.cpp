@@ -54,7 +54,7 @@ http::Response Unavailable(const std::string& message, bool retry) {
 // The error answer, with the headers its status calls for.
 http::Response Failure(const core::Error& error) {
   http::Response response = ErrorToResponse(error);
-  if (error.code == ErrorCode::kUnauthorized)
+  if (error.code == ErrorCode::kUnauthenticated)
     response.set_header("WWW-Authenticate", kAuthenticate);
   if (error.code == ErrorCode::kUnavailable) response.set_header("Retry-After", kRetryAfterS);
   return response;
@@ -77,7 +77,7 @@ http::Response PostGrasp(const http::Request& request, const config::ServiceConf
                          robot::CommandTracker& tracker) {
   if (auto auth = Authorize(request, config.robot.tokens); !auth) return Failure(auth.error());
   if (!IsJson(request)) {
-    return Failure(MakeError(ErrorCode::kUnsupportedMediaType, "send the grasp as application/json",
+    return Failure(MakeError(ErrorCode::kUnsupportedFormat, "send the grasp as application/json",
                              "Content-Type"));
   }
   auto parsed = ParseRobotGraspRequest(request.body, config.robot);
@@ -150,7 +150,7 @@ core::Result<bridge::Ok> Authorize(const http::Request& request,
                                    const std::vector<std::string>& tokens) {
   const auto header = request.header("Authorization");
   if (!header) {
-    return MakeError(ErrorCode::kUnauthorized,
+    return MakeError(ErrorCode::kUnauthenticated,
                      "this route needs 'Authorization: Bearer <token>' (a robot token)",
                      "Authorization");
   }
@@ -161,14 +161,14 @@ core::Result<bridge::Ok> Authorize(const http::Request& request,
     bearer = std::tolower(static_cast<unsigned char>(value[i])) == kScheme[i];
   }
   if (!bearer) {
-    return MakeError(ErrorCode::kUnauthorized, "the Authorization header must be 'Bearer <token>'",
-                     "Authorization");
+    return MakeError(ErrorCode::kUnauthenticated,
+                     "the Authorization header must be 'Bearer <token>'", "Authorization");
   }
   value.remove_prefix(kScheme.size());
   while (!value.empty() && value.front() == ' ') value.remove_prefix(1);
   while (!value.empty() && value.back() == ' ') value.remove_suffix(1);
   if (!TokenMatches(value, tokens)) {
-    return MakeError(ErrorCode::kForbidden, "the token is not accepted", "Authorization");
+    return MakeError(ErrorCode::kPermissionDenied, "the token is not accepted", "Authorization");
   }
   return bridge::Ok{};
 }

@@ -20,8 +20,8 @@ namespace softgrasp::rest {
 /// lengths, not on where `presented` differs from them (no early exit).
 bool TokenMatches(std::string_view presented, const std::vector<std::string>& tokens);
 
-/// Checks `Authorization: Bearer <token>`: kUnauthorized when missing or not a Bearer
-/// credential, kForbidden when the token is not one of `tokens`.
+/// Checks `Authorization: Bearer <token>`: kUnauthenticated when missing or not a Bearer
+/// credential, kPermissionDenied when the token is not one of `tokens`.
 core::Result<bridge::Ok> Authorize(const http::Request& request,
                                    const std::vector<std::string>& tokens);
 

@@ -25,7 +25,7 @@
 #include "service/cli/array_tasks.h"
 #include "service/core/status.h"
 #include "service/gqcnn/dataset_format.h"
-#include "service/mesh/mesh_grasp_analysis.h"
+#include "service/mesh_grasps/mesh_grasp_analysis.h"
 #include "sim/render/render.h"
 
 namespace softgrasp::sim {

@@ -10,6 +10,7 @@
 #include "service/core/fge.h"
 #include "service/core/fge_geometry.h"
 #include "service/core/preprocess.h"
+#include "tests/support/fge_reference.h"
 #include "tests/support/synthetic_scene.h"
 #include "tests/support/test_data.h"
 

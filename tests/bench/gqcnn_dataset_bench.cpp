@@ -13,8 +13,8 @@
 
 #include "service/gqcnn/crop.h"
 #include "service/mesh/fractal.h"
-#include "service/mesh/mesh_grasp_analysis.h"
 #include "service/mesh/mesh_prepare.h"
+#include "service/mesh_grasps/mesh_grasp_analysis.h"
 #include "sim/gqcnn/gqcnn_dataset.h"
 
 namespace softgrasp::sim {

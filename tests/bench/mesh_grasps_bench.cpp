@@ -16,11 +16,11 @@
 #include <string>
 #include <vector>
 
-#include "service/mesh/antipodal.h"
-#include "service/mesh/grasp_quality.h"
-#include "service/mesh/mesh_grasp_analysis.h"
 #include "service/mesh/mesh_io.h"
-#include "service/mesh/stable_poses.h"
+#include "service/mesh_grasps/antipodal.h"
+#include "service/mesh_grasps/grasp_quality.h"
+#include "service/mesh_grasps/mesh_grasp_analysis.h"
+#include "service/mesh_grasps/stable_poses.h"
 #include "service/raycast/raycast.h"
 #include "tests/support/subdivided_mesh.h"
 

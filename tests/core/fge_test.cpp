@@ -11,6 +11,7 @@
 
 #include "service/core/fge_geometry.h"
 #include "service/core/preprocess.h"
+#include "tests/support/fge_reference.h"
 #include "tests/support/grasp_footprint.h"
 #include "tests/support/synthetic_scene.h"
 

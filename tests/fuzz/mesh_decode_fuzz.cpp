@@ -3,7 +3,7 @@
 // and survive a write/read round trip (exactly for OBJ and PLY; STL is float32 and welds, so only
 // success is required). PrepareMesh (small limits; with and without Dex-Net's rescale) must then
 // give a closed, 2-manifold, connected, outward solid with finite coordinates within the limits,
-// or refuse with kUnprocessable or kPayloadTooLarge on field "mesh": nothing else, and no crash.
+// or refuse with kUnprocessable or kTooLarge on field "mesh": nothing else, and no crash.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -49,7 +49,7 @@ void CheckPrepared(const TriangleMesh& decoded, const softgrasp::mesh::PrepareOp
   if (!prepared.ok()) {
     const auto& e = prepared.error();
     const bool allowed = e.code == ErrorCode::kUnprocessable ||
-                         (e.code == ErrorCode::kPayloadTooLarge &&
+                         (e.code == ErrorCode::kTooLarge &&
                           static_cast<std::int64_t>(decoded.faces.size()) > options.max_triangles);
     if (!allowed || e.field != "mesh" || e.message.empty()) std::abort();
     return;

@@ -137,8 +137,8 @@ void ExpectDecodes(const std::string& name, const std::string& bytes) {
   const auto result = DecodeDepth(bytes, options);
   const std::pair<const char*, ErrorCode> failures[] = {
       {"invalid_", ErrorCode::kInvalidArgument},
-      {"unsupported_", ErrorCode::kUnsupportedMediaType},
-      {"too_large_", ErrorCode::kPayloadTooLarge}};
+      {"unsupported_", ErrorCode::kUnsupportedFormat},
+      {"too_large_", ErrorCode::kTooLarge}};
   if (name.starts_with("ok_")) {
     EXPECT_TRUE(result.ok()) << result.error().message;
     return;

@@ -129,11 +129,11 @@ TEST(DecodeMask, PaletteIndicesCountByTheirColour) {
 }
 
 TEST(DecodeMask, NotAPngIsUnsupported) {
-  ExpectMaskError(DecodeMask("", kMaxPixels), ErrorCode::kUnsupportedMediaType, "PNG");
-  ExpectMaskError(DecodeMask("P5\n2 2\n255\n\1\2\3\4", kMaxPixels),
-                  ErrorCode::kUnsupportedMediaType, "PNG");
+  ExpectMaskError(DecodeMask("", kMaxPixels), ErrorCode::kUnsupportedFormat, "PNG");
+  ExpectMaskError(DecodeMask("P5\n2 2\n255\n\1\2\3\4", kMaxPixels), ErrorCode::kUnsupportedFormat,
+                  "PNG");
   ExpectMaskError(DecodeMask(std::string("\x93NUMPY", 6), kMaxPixels),
-                  ErrorCode::kUnsupportedMediaType, "PNG");
+                  ErrorCode::kUnsupportedFormat, "PNG");
 }
 
 TEST(DecodeMask, TruncatedAndCorruptFilesAreInvalid) {
@@ -152,9 +152,9 @@ TEST(DecodeMask, TruncatedAndCorruptFilesAreInvalid) {
 
 TEST(DecodeMask, OversizedImagesAreRefusedBeforeDecoding) {
   std::string png = EncodeWithOpenCv(".png", Expected());
-  ExpectMaskError(DecodeMask(png, 100), ErrorCode::kPayloadTooLarge, "");
+  ExpectMaskError(DecodeMask(png, 100), ErrorCode::kTooLarge, "");
   PatchPngSize(png, 100000, 100000);  // the IHDR claims 10^10 pixels; the data is 40 x 30
-  ExpectMaskError(DecodeMask(png, kMaxPixels), ErrorCode::kPayloadTooLarge, "");
+  ExpectMaskError(DecodeMask(png, kMaxPixels), ErrorCode::kTooLarge, "");
   PatchPngSize(png, 0, 30);
   ExpectMaskError(DecodeMask(png, kMaxPixels), ErrorCode::kInvalidArgument, "");
 }

@@ -151,7 +151,7 @@ TEST(NpyTest, RejectsOtherDtypesNamingThem) {
   for (const std::string dtype : {"|f4", "<f2", "<i4", "<i2", "|u1", "<u4", "<c8"}) {
     SCOPED_TRACE(dtype);
     const auto result = DecodeDepth(MakeNpy(NpyDict(dtype, "(2, 3)"), data));
-    ExpectError(result, ErrorCode::kUnsupportedMediaType, "'" + dtype + "'");
+    ExpectError(result, ErrorCode::kUnsupportedFormat, "'" + dtype + "'");
     EXPECT_THAT(result.error().message, HasSubstr("'<f4', '>f4', '<f8', '>f8'"));
     EXPECT_THAT(result.error().message, HasSubstr("'<u2', '>u2'"));
   }
@@ -161,7 +161,7 @@ TEST(NpyTest, RejectsStructuredDtype) {
   ExpectError(DecodeDepth(MakeNpy("{'descr': [('z', '<f4')], 'fortran_order': False, "
                                   "'shape': (2, 3), }",
                                   FloatBytes(kSixValues))),
-              ErrorCode::kUnsupportedMediaType, "structured");
+              ErrorCode::kUnsupportedFormat, "structured");
 }
 
 TEST(NpyTest, RejectsTruncatedHeader) {
@@ -185,26 +185,26 @@ TEST(NpyTest, RejectsZeroSize) {
 
 TEST(NpyTest, RejectsNonImageShapes) {
   ExpectError(DecodeDepth(MakeNpy(NpyDict("<f4", "(2, 3, 3)"), FloatBytes(kSixValues))),
-              ErrorCode::kUnsupportedMediaType, "(H, W) or (H, W, 1)");
+              ErrorCode::kUnsupportedFormat, "(H, W) or (H, W, 1)");
   ExpectError(DecodeDepth(MakeNpy(NpyDict("<f4", "(6,)"), FloatBytes(kSixValues))),
-              ErrorCode::kUnsupportedMediaType, "(6,)");
+              ErrorCode::kUnsupportedFormat, "(6,)");
 }
 
 TEST(NpyTest, RefusesDeclaredHugeImageBeforeReadingData) {
   // 100000 x 100000 floats would be 40 GB; the file holds none of it.
   const std::string npy = MakeNpy(NpyDict("<f4", "(100000, 100000)"), "");
-  ExpectError(DecodeDepth(npy), ErrorCode::kPayloadTooLarge, "exceeds the limit");
+  ExpectError(DecodeDepth(npy), ErrorCode::kTooLarge, "exceeds the limit");
   DepthDecodeOptions small;
   small.max_pixels = 5;
   ExpectError(DecodeDepth(MakeNpy(NpyDict("<f4", "(2, 3)"), FloatBytes(kSixValues)), small),
-              ErrorCode::kPayloadTooLarge, "limit of 5 pixels");
+              ErrorCode::kTooLarge, "limit of 5 pixels");
 }
 
 TEST(NpyTest, RefusesShapeWhoseProductOverflows) {
   ExpectError(DecodeDepth(MakeNpy(NpyDict("<f4", "(4294967296, 4294967296)"), "")),
-              ErrorCode::kPayloadTooLarge, "exceeds");
+              ErrorCode::kTooLarge, "exceeds");
   ExpectError(DecodeDepth(MakeNpy(NpyDict("<f4", "(99999999999999999999999999, 2)"), "")),
-              ErrorCode::kPayloadTooLarge, "exceeds");
+              ErrorCode::kTooLarge, "exceeds");
 }
 
 TEST(NpyTest, RejectsMalformedHeaders) {
@@ -224,7 +224,7 @@ TEST(NpyTest, RejectsMalformedHeaders) {
 TEST(NpyTest, RejectsUnknownVersion) {
   std::string npy = EncodeNpy(cv::Mat1f(2, 2, 1.0f));
   npy[6] = 4;
-  ExpectError(DecodeDepth(npy), ErrorCode::kUnsupportedMediaType, "version 4.0");
+  ExpectError(DecodeDepth(npy), ErrorCode::kUnsupportedFormat, "version 4.0");
 }
 
 TEST(NpyTest, DecodesPrimesenseSample) {

@@ -57,11 +57,11 @@ TEST(SniffTest, RejectsGarbageAndEmptyInput) {
   for (const std::string bytes : {"GIF89a garbage", "\x93NUMP", "", "\xff\xd8\xff\xe0 jpeg"}) {
     const auto format = SniffDepthFormat(bytes);
     ASSERT_FALSE(format.ok());
-    EXPECT_EQ(format.error().code, ErrorCode::kUnsupportedMediaType);
+    EXPECT_EQ(format.error().code, ErrorCode::kUnsupportedFormat);
     EXPECT_EQ(format.error().field, "depth");
-    ExpectError(DecodeDepth(bytes), ErrorCode::kUnsupportedMediaType, "depth");
+    ExpectError(DecodeDepth(bytes), ErrorCode::kUnsupportedFormat, "depth");
   }
-  ExpectError(DecodeDepth("P5 1 1 255 garbage"), ErrorCode::kUnsupportedMediaType,
+  ExpectError(DecodeDepth("P5 1 1 255 garbage"), ErrorCode::kUnsupportedFormat,
               "unrecognised depth format");
 }
 
@@ -89,25 +89,25 @@ TEST(PngTest, RoundTripScalesCountsAndMarksZeroMissing) {
 }
 
 TEST(PngTest, Rejects8BitPng) {
-  ExpectError(DecodeDepth(EncodePng(cv::Mat1b(4, 4, 7))), ErrorCode::kUnsupportedMediaType,
+  ExpectError(DecodeDepth(EncodePng(cv::Mat1b(4, 4, 7))), ErrorCode::kUnsupportedFormat,
               "PNG depth must be 16-bit single channel (got 8-bit grayscale)");
   ExpectError(DecodeDepth(EncodePng(cv::Mat3b(4, 4, cv::Vec3b(1, 2, 3)))),
-              ErrorCode::kUnsupportedMediaType, "(got 8-bit RGB)");
+              ErrorCode::kUnsupportedFormat, "(got 8-bit RGB)");
 }
 
 TEST(PngTest, Rejects16BitRgbPng) {
   const cv::Mat rgb(4, 4, CV_16UC3, cv::Scalar(1000, 2000, 3000));
-  ExpectError(DecodeDepth(EncodeWithOpenCv(".png", rgb)), ErrorCode::kUnsupportedMediaType,
+  ExpectError(DecodeDepth(EncodeWithOpenCv(".png", rgb)), ErrorCode::kUnsupportedFormat,
               "(got 16-bit RGB)");
 }
 
 TEST(PngTest, RefusesDeclaredHugeImageBeforeDecoding) {
   std::string png = EncodePng(TestCounts());
   PatchPngSize(png, 100000, 100000);
-  ExpectError(DecodeDepth(png), ErrorCode::kPayloadTooLarge, "exceeds the limit");
+  ExpectError(DecodeDepth(png), ErrorCode::kTooLarge, "exceeds the limit");
   DepthDecodeOptions small;
   small.max_pixels = 100;
-  ExpectError(DecodeDepth(EncodePng(TestCounts()), small), ErrorCode::kPayloadTooLarge,
+  ExpectError(DecodeDepth(EncodePng(TestCounts()), small), ErrorCode::kTooLarge,
               "limit of 100 pixels");
 }
 
@@ -176,7 +176,7 @@ TEST(TiffTest, RefusesMillimetresReadAsMetres) {
 
 TEST(TiffTest, RejectsUint16Samples) {
   ExpectError(DecodeDepth(EncodeWithOpenCv(".tiff", cv::Mat1w(4, 4, 1000))),
-              ErrorCode::kUnsupportedMediaType,
+              ErrorCode::kUnsupportedFormat,
               "TIFF depth must be 32-bit float with one sample per pixel (got 16-bit unsigned");
 }
 
@@ -196,10 +196,10 @@ TEST(TiffTest, RefusesDeclaredHugeImageBeforeReading) {
   std::string tiff = EncodeTiffFloat(TestDepth(4, 4));
   PatchTiffTag(tiff, TIFFTAG_IMAGEWIDTH, 100000);
   PatchTiffTag(tiff, TIFFTAG_IMAGELENGTH, 100000);
-  ExpectError(DecodeDepth(tiff), ErrorCode::kPayloadTooLarge, "exceeds the limit");
+  ExpectError(DecodeDepth(tiff), ErrorCode::kTooLarge, "exceeds the limit");
   DepthDecodeOptions small;
   small.max_pixels = 15;
-  ExpectError(DecodeDepth(EncodeTiffFloat(TestDepth(4, 4)), small), ErrorCode::kPayloadTooLarge,
+  ExpectError(DecodeDepth(EncodeTiffFloat(TestDepth(4, 4)), small), ErrorCode::kTooLarge,
               "limit of 15 pixels");
 }
 

@@ -1,7 +1,7 @@
 // Antipodal grasp sampling on analytic meshes: every grasp is in force closure and fits the
 // stroke, a plate wider than the stroke is only grasped across its thickness, a sphere's grasps
 // are chords within the friction cone, and a seed fixes the grasps.
-#include "service/mesh/antipodal.h"
+#include "service/mesh_grasps/antipodal.h"
 
 #include <gtest/gtest.h>
 

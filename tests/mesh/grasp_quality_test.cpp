@@ -1,7 +1,7 @@
 // Two-contact grasp quality: force closure at the cone boundary, the grasp matrix, Ferrari-Canny L1
 // against a closed form (cube) and an independent brute-force facet enumeration, invariances,
 // degenerate input, and the robust mean under pose and friction noise.
-#include "service/mesh/grasp_quality.h"
+#include "service/mesh_grasps/grasp_quality.h"
 
 #include <gtest/gtest.h>
 

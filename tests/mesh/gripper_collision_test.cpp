@@ -2,7 +2,7 @@
 // open jaws (free with a 5 cm stroke, hit with a 3.8 cm one), the palm meeting the cube's top,
 // fingertips reaching into the table exactly at the clearance, an obstacle above the grasp met
 // only by a long enough approach path, and the top-down approach angle of tilted axes.
-#include "service/mesh/gripper_collision.h"
+#include "service/mesh_grasps/gripper_collision.h"
 
 #include <gtest/gtest.h>
 

@@ -2,7 +2,7 @@
 // grasp in force closure, top-down grasps free exactly where the gripper's geometry says, a
 // preview that sees the top face at its depth), determinism per seed, refusals; and the Dex-Net
 // bar clamp, whose grasps across the bar and the handle rank above grasps on the jaw tips.
-#include "service/mesh/mesh_grasp_analysis.h"
+#include "service/mesh_grasps/mesh_grasp_analysis.h"
 
 #include <gtest/gtest.h>
 

@@ -232,9 +232,9 @@ TEST(MeshIoTest, BrokenInputIsAnErrorNotACrash) {
             ErrorCode::kInvalidArgument);  // no endloop
   EXPECT_EQ(ErrorOf("solid x\nendsolid x\n"), ErrorCode::kUnprocessable);
 
-  EXPECT_EQ(ErrorOf(""), ErrorCode::kUnsupportedMediaType);
-  EXPECT_EQ(ErrorOf("hello world\n"), ErrorCode::kUnsupportedMediaType);
-  EXPECT_EQ(ErrorOf(std::string("\x89PNG\r\n\x1a\n", 8)), ErrorCode::kUnsupportedMediaType);
+  EXPECT_EQ(ErrorOf(""), ErrorCode::kUnsupportedFormat);
+  EXPECT_EQ(ErrorOf("hello world\n"), ErrorCode::kUnsupportedFormat);
+  EXPECT_EQ(ErrorOf(std::string("\x89PNG\r\n\x1a\n", 8)), ErrorCode::kUnsupportedFormat);
 }
 
 TEST(MeshIoTest, LimitsAreCheckedBeforeAllocating) {
@@ -242,31 +242,29 @@ TEST(MeshIoTest, LimitsAreCheckedBeforeAllocating) {
   // Declared counts far beyond the data: refused from the header alone.
   EXPECT_EQ(ErrorOf("ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\n"
                     "property float x\nproperty float y\nproperty float z\nend_header\n"),
-            ErrorCode::kPayloadTooLarge);
+            ErrorCode::kTooLarge);
   EXPECT_EQ(ErrorOf("ply\nformat binary_little_endian 1.0\nelement vertex 4000000\n"
                     "property float x\nproperty float y\nproperty float z\nend_header\n"),
             ErrorCode::kInvalidArgument);  // within the limit, but 12 bytes can't hold it
   EXPECT_EQ(ErrorOf("ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
                     "property float z\nelement face 99999999999\n"
                     "property list uchar int vertex_indices\nend_header\n"),
-            ErrorCode::kPayloadTooLarge);
+            ErrorCode::kTooLarge);
   std::string huge_stl(84, '\0');
   huge_stl.replace(80, 4, Le32(0xffffffffu));
-  EXPECT_EQ(ErrorOf(huge_stl), ErrorCode::kPayloadTooLarge);
+  EXPECT_EQ(ErrorOf(huge_stl), ErrorCode::kTooLarge);
 
   MeshReadOptions small;
   small.max_vertices = 7;
   small.max_faces = 100;
   for (const MeshFormat f : kAllFormats) {
-    EXPECT_EQ(ErrorOf(WriteMesh(BoxMesh({0, 0, 0}, {1, 1, 1}), f), small),
-              ErrorCode::kPayloadTooLarge)
+    EXPECT_EQ(ErrorOf(WriteMesh(BoxMesh({0, 0, 0}, {1, 1, 1}), f), small), ErrorCode::kTooLarge)
         << MeshFormatName(f);
   }
   small.max_vertices = 8;
   small.max_faces = 11;
   for (const MeshFormat f : kAllFormats) {
-    EXPECT_EQ(ErrorOf(WriteMesh(BoxMesh({0, 0, 0}, {1, 1, 1}), f), small),
-              ErrorCode::kPayloadTooLarge)
+    EXPECT_EQ(ErrorOf(WriteMesh(BoxMesh({0, 0, 0}, {1, 1, 1}), f), small), ErrorCode::kTooLarge)
         << MeshFormatName(f);
   }
   small.max_faces = 12;

@@ -597,7 +597,7 @@ TEST(MeshPrepareTest, TooManyTrianglesIsPayloadTooLarge) {
   PrepareOptions options;
   options.max_triangles = 11;
   const core::Error e = MustRefuse(Cube(0.05), options);
-  EXPECT_EQ(e.code, ErrorCode::kPayloadTooLarge);
+  EXPECT_EQ(e.code, ErrorCode::kTooLarge);
   EXPECT_EQ(e.field, "mesh");
   EXPECT_EQ(e.message, "the mesh has 12 triangles; at most 11 are accepted");
   options.max_triangles = 12;
@@ -877,7 +877,7 @@ TEST(MeshPrepareTest, RandomSmallMeshesNeverBreakIt) {
       ExpectSolid(r.value());
     } else {
       EXPECT_TRUE(r.error().code == ErrorCode::kUnprocessable ||
-                  r.error().code == ErrorCode::kPayloadTooLarge)
+                  r.error().code == ErrorCode::kTooLarge)
           << r.error().message;
       EXPECT_EQ(r.error().field, "mesh");
     }

@@ -1,7 +1,7 @@
 // Stable poses on a table: boxes, prisms and an icosphere against solid angles computed here by
 // formulas independent of the library's (rectangle arcsine formula, L'Huilier's theorem), a
 // tetrahedron whose base topples, degenerate inputs and determinism.
-#include "service/mesh/stable_poses.h"
+#include "service/mesh_grasps/stable_poses.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "service/mesh/gripper_collision.h"
+#include "service/mesh_grasps/gripper_collision.h"
 
 #include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/geometry/shape/box.h>

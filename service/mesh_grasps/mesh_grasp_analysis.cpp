@@ -1,4 +1,4 @@
-#include "service/mesh/mesh_grasp_analysis.h"
+#include "service/mesh_grasps/mesh_grasp_analysis.h"
 
 #include <algorithm>
 #include <chrono>

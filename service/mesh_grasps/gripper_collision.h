@@ -19,9 +19,9 @@
 
 #include "service/core/grasp.h"
 #include "service/core/status.h"
-#include "service/mesh/antipodal.h"
 #include "service/mesh/mesh.h"
-#include "service/mesh/stable_poses.h"
+#include "service/mesh_grasps/antipodal.h"
+#include "service/mesh_grasps/stable_poses.h"
 
 namespace softgrasp::mesh {
 

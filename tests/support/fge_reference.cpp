@@ -1,10 +1,11 @@
 // Reference FGE: rotated templates, cv::filter2D at full resolution. Slow on purpose; it is the
 // yardstick for the fast path (tests) and the benchmark baseline. See docs/fge.md.
+#include "tests/support/fge_reference.h"
+
 #include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "service/core/fge.h"
 #include "service/core/fge_geometry.h"
 
 namespace softgrasp::core {

@@ -1,4 +1,4 @@
-#include "service/mesh/grasp_quality.h"
+#include "service/mesh_grasps/grasp_quality.h"
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>

@@ -1,4 +1,4 @@
-#include "service/mesh/antipodal.h"
+#include "service/mesh_grasps/antipodal.h"
 
 #include <algorithm>
 #include <cmath>

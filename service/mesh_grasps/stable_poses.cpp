@@ -6,7 +6,7 @@
 // inside the facet" is a plain convex-polygon test on the whole flat face, and no second pass is
 // needed to glue coplanar triangles back together (with "Qt" that pass would also have to cope
 // with the zero-area triangles triangulation can produce).
-#include "service/mesh/stable_poses.h"
+#include "service/mesh_grasps/stable_poses.h"
 
 #include <libqhull_r/qhull_ra.h>
 

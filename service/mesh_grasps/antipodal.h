@@ -14,8 +14,8 @@
 #include <utility>
 #include <vector>
 
-#include "service/mesh/grasp_quality.h"
 #include "service/mesh/mesh.h"
+#include "service/mesh_grasps/grasp_quality.h"
 #include "service/raycast/raycast.h"
 
 namespace softgrasp::mesh {

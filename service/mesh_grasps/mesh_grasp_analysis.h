@@ -16,13 +16,13 @@
 #include "service/core/depth.h"
 #include "service/core/grasp.h"
 #include "service/core/status.h"
-#include "service/mesh/antipodal.h"
-#include "service/mesh/grasp_quality.h"
-#include "service/mesh/gripper_collision.h"
 #include "service/mesh/mesh.h"
 #include "service/mesh/mesh_io.h"
 #include "service/mesh/mesh_prepare.h"
-#include "service/mesh/stable_poses.h"
+#include "service/mesh_grasps/antipodal.h"
+#include "service/mesh_grasps/grasp_quality.h"
+#include "service/mesh_grasps/gripper_collision.h"
+#include "service/mesh_grasps/stable_poses.h"
 
 namespace softgrasp::mesh {
 
