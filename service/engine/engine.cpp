@@ -4,9 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <typeinfo>
 
-#include "service/core/fge_deformability.h"
-#include "service/core/fge_stiffness.h"
 #include "service/engine/contact_region.h"
 
 namespace softgrasp::engine {
@@ -18,159 +17,17 @@ double MillisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-/// What a planner works with: the restricted scene, the maps, the instances and the target.
-struct PlanContext {
-  const Models& models;
-  const core::Scene& scene;
-  const core::Camera& camera;
-  const PlanOptions& options;
-  const cv::Mat1f& stiffness;  ///< empty unless needed or wanted
-  const Instances* instances;  ///< null unless needed or asked for
-  int target_id;               ///< > 0: the requested target
-};
-
-using PlanError = std::optional<core::Error>;
-
-PlanError PlanFge(const PlanContext& c, Plan* plan) {
-  for (const core::Grasp& g :
-       core::DetectGraspsFge(c.scene, c.camera, c.options.gripper, c.options.fge)) {
-    PlannedGrasp p;
-    p.grasp = g;
-    if (!c.stiffness.empty()) {
-      p.grasp.mean_stiffness = core::ContactMeanStiffness(c.scene, c.stiffness, g);
-    }
-    plan->grasps.push_back(std::move(p));
-  }
-  return std::nullopt;
-}
-
-PlanError PlanGqcnn(const PlanContext& c, Plan* plan) {
-  gqcnn::PolicyParams params = c.options.gqcnn;
-  params.num_grasps = c.options.fge.top_k;
-  const models::GqcnnModel& model = *c.models.gqcnn;
-  auto planned =
-      gqcnn::PlanGqcnnGrasps(c.scene, c.camera, c.options.gripper, params,
-                             [&model](std::span<const float> crops, std::span<const float> depths,
-                                      std::span<const float> clearances) {
-                               return model.Predict(crops, depths, clearances);
-                             });
-  if (!planned.ok()) return planned.error();
-  const gqcnn::PolicyPlan& p = planned.value();
-  for (const gqcnn::PolicyGrasp& g : p.grasps) {
-    PlannedGrasp out;
-    out.grasp = g.grasp;
-    out.gqcnn_pose = g.image_pose;
-    out.gqcnn_contacts = g.contacts;
-    out.gqcnn_predicted_success = g.quality >= model.decision_threshold();
-    plan->grasps.push_back(std::move(out));
-  }
-  plan->gqcnn = GqcnnStats{p.edge_pixels,      p.antipodal_pairs,    p.evaluated,
-                           p.timing.sample_ms, p.timing.evaluate_ms, model.decision_threshold()};
-  return std::nullopt;
-}
-
-PlanError PlanStiffness(const PlanContext& c, Plan* plan) {
-  core::StiffnessFgeParams params = c.options.stiffness;
-  params.fge = c.options.fge;
-  for (const core::Grasp& g :
-       core::DetectGraspsStiffness(c.scene, c.camera, c.stiffness, c.options.gripper, params)) {
-    PlannedGrasp p;
-    p.grasp = g;
-    plan->grasps.push_back(std::move(p));
-  }
-  return std::nullopt;
-}
-
-PlanError PlanDeformability(const PlanContext& c, Plan* plan) {
-  core::DeformabilityParams params = c.options.deformability;
-  params.fge = c.options.fge;
-  params.target_id = c.target_id;
-  if (c.target_id > 0) params.target_px = c.options.target_px;
-  const Instances& in = *c.instances;
-  const core::DeformabilityResult planned = core::DetectGraspsDeformability(
-      c.scene, c.camera, {in.labels, in.scores, in.deformability, in.foreground}, c.options.gripper,
-      params);
-  for (const core::DeformabilityGrasp& dg : planned.grasps) {
-    PlannedGrasp p;
-    p.grasp = dg.grasp;
-    p.instance_id = dg.instance_id;
-    p.deformability = DeformabilityRecord{
-        params.policy,
-        planned.fallback ? "fallback" : (c.target_id > 0 ? "request" : "policy"),
-        dg.opening_fraction,
-        dg.mean_deformability,
-        dg.pressed_ids,
-        dg.press_depth_m};
-    plan->grasps.push_back(std::move(p));
-  }
-  plan->target = TargetChoice{planned.target_id, params.policy, planned.tried_ids, planned.fallback,
-                              planned.soft_part_allowed};
-  return std::nullopt;
-}
-
-// Why a strategy cannot plan with these options (its own parameters; FGE's search parameters
-// and the gripper are checked for every strategy).
-PlanError ValidateNothing(const PlanOptions&, const core::Camera&) { return std::nullopt; }
-
-PlanError ValidateGqcnn(const PlanOptions& o, const core::Camera&) {
-  return gqcnn::ValidatePolicyParams(o.gqcnn);
-}
-
-PlanError ValidateStiffness(const PlanOptions& o, const core::Camera& camera) {
-  core::StiffnessFgeParams params = o.stiffness;
-  params.fge = o.fge;
-  return core::ValidateStiffnessFgeInputs(camera, o.gripper, params);
-}
-
-PlanError ValidateDeformability(const PlanOptions& o, const core::Camera&) {
-  return core::ValidateDeformabilityParams(o.deformability, o.gripper);
-}
-
-using Planner = PlanError (*)(const PlanContext&, Plan*);
-using Validator = PlanError (*)(const PlanOptions&, const core::Camera&);
-
-struct Registered {
-  StrategyInfo info;
-  Validator validate;
-  Planner plan;
-};
-
-// The one place strategies are registered, in order of preference (the default strategy is the
-// last one the loaded models serve).
-const std::vector<Registered>& Registry() {
-  static const std::vector<Registered> registry = {
-      {{Strategy::kFge, "fge", false, false, false, false, true}, &ValidateNothing, &PlanFge},
-      {{Strategy::kGqcnn, "gqcnn", false, false, true, false, false}, &ValidateGqcnn, &PlanGqcnn},
-      {{Strategy::kStiffness, "stiffness", true, false, false, false, true},
-       &ValidateStiffness,
-       &PlanStiffness},
-      {{Strategy::kDeformability, "deformability", false, true, false, true, true},
-       &ValidateDeformability,
-       &PlanDeformability},
-  };
-  return registry;
-}
-
-const Registered& Find(Strategy strategy) {
-  for (const Registered& r : Registry()) {
-    if (r.info.strategy == strategy) return r;
-  }
-  throw std::invalid_argument("engine: unregistered strategy " +
-                              std::to_string(static_cast<int>(strategy)));
-}
-
 // "'fge', 'stiffness' or 'deformability'"
-std::string QuotedList(const std::vector<Strategy>& strategies) {
+std::string QuotedList(const std::vector<std::string>& names) {
   std::string out;
-  for (std::size_t i = 0; i < strategies.size(); ++i) {
-    if (i > 0) out += i + 1 == strategies.size() ? " or " : ", ";
-    out += std::string("'") + StrategyName(strategies[i]) + "'";
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (i > 0) out += i + 1 == names.size() ? " or " : ", ";
+    out += "'" + names[i] + "'";
   }
   return out;
 }
 
-core::Error Missing(const Models& models, Strategy strategy) {
-  const StrategyInfo& info = InfoOf(strategy);
+core::Error Missing(const Models& models, const StrategyInfo& info) {
   const char* missing =
       info.needs_segmentation_model && !models.segmentation
           ? "a segmentation model and none is loaded (start the server with "
@@ -194,44 +51,49 @@ std::string SizeText(const cv::Size& size) {
 
 }  // namespace
 
-const std::vector<StrategyInfo>& Strategies() {
-  static const std::vector<StrategyInfo> infos = [] {
-    std::vector<StrategyInfo> out;
-    for (const Registered& r : Registry()) out.push_back(r.info);
-    return out;
-  }();
-  return infos;
-}
+const std::vector<const Strategy*>& Strategies() { return AllStrategies(); }
 
-const StrategyInfo& InfoOf(Strategy strategy) { return Find(strategy).info; }
-
-const char* StrategyName(Strategy strategy) { return InfoOf(strategy).name; }
-
-std::optional<Strategy> StrategyByName(std::string_view name) {
-  for (const StrategyInfo& info : Strategies()) {
-    if (name == info.name) return info.strategy;
+const Strategy* FindStrategy(std::string_view name) {
+  for (const Strategy* s : Strategies()) {
+    if (name == s->info().name) return s;
   }
-  return std::nullopt;
+  return nullptr;
 }
 
-bool Serves(const Models& models, Strategy strategy) {
-  const StrategyInfo& info = InfoOf(strategy);
+core::Result<const Strategy*> StrategyNamed(std::string_view name) {
+  if (const Strategy* s = FindStrategy(name)) return s;
+  std::vector<std::string> names;
+  for (const Strategy* s : Strategies()) names.emplace_back(s->info().name);
+  return Invalid("strategy must be " + QuotedList(names) + ", got '" + std::string(name) + "'",
+                 "strategy");
+}
+
+bool Serves(const Models& models, const Strategy& strategy) {
+  const StrategyInfo& info = strategy.info();
   return (!info.needs_stiffness_model || models.stiffness) &&
          (!info.needs_segmentation_model || models.segmentation) &&
          (!info.needs_gqcnn_model || models.gqcnn);
 }
 
-std::optional<core::Error> Unserved(const Models& models, Strategy strategy) {
-  if (Serves(models, strategy)) return std::nullopt;
-  return Missing(models, strategy);
+std::optional<core::Error> Unserved(const Models& models, std::string_view name) {
+  auto strategy = StrategyNamed(name);
+  if (!strategy.ok()) return strategy.error();
+  if (Serves(models, *strategy.value())) return std::nullopt;
+  return Missing(models, strategy.value()->info());
 }
 
-Strategy DefaultStrategy(const Models& models) { return ServedStrategies(models).back(); }
+const Strategy& DefaultStrategy(const Models& models) {
+  const Strategy* last = Strategies().front();
+  for (const Strategy* s : Strategies()) {
+    if (Serves(models, *s)) last = s;
+  }
+  return *last;
+}
 
-std::vector<Strategy> ServedStrategies(const Models& models) {
-  std::vector<Strategy> out;
-  for (const StrategyInfo& info : Strategies()) {
-    if (Serves(models, info.strategy)) out.push_back(info.strategy);
+std::vector<std::string> ServedStrategies(const Models& models) {
+  std::vector<std::string> out;
+  for (const Strategy* s : Strategies()) {
+    if (Serves(models, *s)) out.emplace_back(s->info().name);
   }
   return out;
 }
@@ -239,14 +101,24 @@ std::vector<Strategy> ServedStrategies(const Models& models) {
 core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera& camera,
                               const PlanOptions& options, const Models& models) {
   const auto start = Clock::now();
-  const Registered& strategy = Find(options.strategy);
-  const StrategyInfo& info = strategy.info;
+  auto named = StrategyNamed(options.strategy);
+  if (!named.ok()) return named.error();
+  const Strategy& strategy = *named.value();
+  const StrategyInfo& info = strategy.info();
+  const StrategyOptions* own_options = options.strategy_options.get();
+  if (own_options) {
+    const auto defaults = strategy.DefaultOptions();
+    if (!defaults || typeid(*own_options) != typeid(*defaults)) {
+      throw std::invalid_argument(std::string("PlanGrasps: options of another type for strategy ") +
+                                  info.name);
+    }
+  }
   const bool given_map = !options.stiffness_map.empty();
   // A given stiffness map stands in for the stiffness model.
   if ((info.needs_stiffness_model && !given_map && !models.stiffness) ||
       (info.needs_segmentation_model && !models.segmentation) ||
       (info.needs_gqcnn_model && !models.gqcnn)) {
-    return Missing(models, options.strategy);
+    return Missing(models, info);
   }
   // Strategies without a map of their own report the stiffness model's mean on request.
   const bool own_map = info.needs_stiffness_model || info.needs_segmentation_model;
@@ -271,7 +143,7 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
     return Invalid("min_depth_m must be finite and >= 0", "min_depth_m");
   }
   if (auto error = core::ValidateFgeInputs(camera, options.gripper, options.fge)) return *error;
-  if (auto error = strategy.validate(options, camera)) return *error;
+  if (auto error = strategy.Validate(own_options, options, camera)) return *error;
 
   Plan plan;
   const auto preprocess_start = Clock::now();
@@ -330,7 +202,7 @@ core::Result<Plan> PlanGrasps(const core::DepthImage& depth, const core::Camera&
     const PlanContext context{models,   *planner_scene, camera,
                               options,  plan.stiffness, plan.instances ? &*plan.instances : nullptr,
                               target_id};
-    if (auto error = strategy.plan(context, &plan)) return *error;
+    if (auto error = strategy.Plan(context, own_options, &plan)) return *error;
     // What a planner given the region as its mask proposes outside it is not a grasp (a planner
     // that samples edge pairs can still close on a finger's tip beside allowed pixels). FGE's
     // planners keep their contact surfaces on the free surfaces by construction.

@@ -8,7 +8,6 @@
 
 #include "service/codec/json_codec.h"
 #include "service/codec/mesh_grasps_json.h"
-#include "service/core/fge_deformability.h"
 #include "service/core/preprocess.h"
 #include "service/engine/engine.h"
 #include "service/engine/instances.h"
@@ -20,6 +19,7 @@
 #include "service/rest/fractal_request.h"
 #include "service/rest/mesh_request.h"
 #include "service/rest/robot_api.h"
+#include "service/rest/strategy_fields.h"
 
 namespace softgrasp::rest {
 namespace {
@@ -37,27 +37,9 @@ double MillisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-json GraspToJson(const engine::PlannedGrasp& planned, int rank) {
+json GraspToJson(const engine::PlannedGrasp& planned, int rank, const engine::Strategy& strategy) {
   const core::Grasp& g = planned.grasp;
-  json deformability;
-  if (const auto& d = planned.deformability) {
-    deformability = {{"target_policy", core::TargetPolicyName(d->policy)},
-                     {"target_by", d->target_by},
-                     {"slice", g.height_step},
-                     {"opening_fraction", d->opening_fraction},
-                     {"mean_deformability", OrNull(d->mean_deformability)},
-                     {"pressed_instances", d->pressed_ids},
-                     {"press_depth_m", d->press_depth_m}};
-  }
-  json gqcnn;
-  if (const auto& pose = planned.gqcnn_pose) {
-    // The network's input besides the crop: how deep below the camera the jaws' centre goes.
-    gqcnn = {{"predicted_quality", g.score},
-             {"grasp_depth_m", pose->depth_m},
-             {"contacts", planned.gqcnn_contacts == core::ContactHold::kStable ? "stable" : "firm"},
-             {"predicted_success", planned.gqcnn_predicted_success}};
-  }
-  return {
+  json out = {
       {"rank", rank},
       {"score", g.score},
       {"center_px", {{"u", g.center_u_px}, {"v", g.center_v_px}}},
@@ -77,9 +59,15 @@ json GraspToJson(const engine::PlannedGrasp& planned, int rank) {
       // That instance's mean deformability (0 rigid ... 1 very soft): the model's map only.
       {"instance_deformability", OrNull(planned.instance_deformability)},
       {"pose", codec::ToJson(codec::Pose{"camera", g.p_CG_m, g.q_CG_wxyz})},
-      {"deformability", deformability},
-      {"gqcnn", gqcnn},
   };
+  // Every strategy that adds details to its grasps has its key in every grasp: its object for
+  // its own grasps, null for the others'.
+  for (const engine::Strategy* s : engine::Strategies()) {
+    const std::string key = s->grasp_details_key();
+    if (key.empty()) continue;
+    out[key] = s == &strategy ? s->GraspDetailsJson(planned) : json();
+  }
+  return out;
 }
 
 http::Response Healthz() { return http::Response::Json(200, R"({"status":"ok"})"); }
@@ -122,37 +110,14 @@ json ModelsJson(const Models& models) {
   return list;
 }
 
-// strategy=gqcnn's request fields and their defaults (docs/gqcnn.md).
-json GqcnnDefaultsJson() {
-  const gqcnn::PolicyParams p;
-  return {{"gqcnn_seed_samples", p.seed_samples},
-          {"cem_iterations", p.cem_iterations},
-          {"cem_samples", p.cem_samples},
-          {"gqcnn_seed", p.seed}};
-}
-
-// strategy=deformability's request fields and their defaults (docs/deformability.md).
-json DeformabilityDefaultsJson() {
-  const core::DeformabilityParams d;
-  return {{"target_policy", core::TargetPolicyName(d.policy)},
-          {"min_target_area_px", d.min_target_area_px},
-          {"slice_step_mm", d.slice_step_m * 1000.0},
-          {"num_slices", d.num_slices},
-          {"min_score", d.min_score},
-          {"opening_fractions", d.opening_fractions},
-          {"stiff_part_fraction", d.stiff_part_fraction},
-          {"min_part_contrast", d.min_part_contrast},
-          {"soft_obstacle_threshold", d.soft_obstacle_threshold},
-          {"max_press_depth_mm", d.max_press_depth_m * 1000.0},
-          {"max_targets", d.max_targets}};
-}
-
-json Strategies(const Models& models) {
-  json out = json::array();
-  for (const engine::Strategy s : engine::ServedStrategies(models)) {
-    out.push_back(engine::StrategyName(s));
+// The choices of the strategies' fields named `name` (e.g. "target_policy").
+json ChoicesOfField(const std::string& name) {
+  for (const engine::Strategy* s : engine::Strategies()) {
+    for (const engine::StrategyField& f : s->fields()) {
+      if (f.name == name) return f.choices;
+    }
   }
-  return out;
+  return json::array();
 }
 
 json Overlays(const Models& models) {
@@ -188,9 +153,10 @@ http::Response Info(const config::ServiceConfig& config, bool robot_running, con
         {"max_mesh_triangles", config.max_mesh_triangles},
         {"max_mesh_quality_evaluations", config.max_mesh_quality_evaluations}}},
       {"models", ModelsJson(models)},
-      {"strategies", Strategies(models)},
-      {"default_strategy", engine::StrategyName(engine::DefaultStrategy(models))},
-      {"target_policies", {"highest", "least_deformable"}},
+      {"strategies", engine::ServedStrategies(models)},
+      {"default_strategy", engine::DefaultStrategy(models).info().name},
+      {"strategy_fields", StrategyTablesJson()},
+      {"target_policies", ChoicesOfField("target_policy")},
       {"overlays", Overlays(models)},
       {"depth_formats", {"npy", "png16", "tiff"}},
       {"stiffness_formats", {"png8", "png16", "npy", "color"}},
@@ -201,12 +167,11 @@ http::Response Info(const config::ServiceConfig& config, bool robot_running, con
       {"defaults",
        {{"camera", codec::ToJson(config.default_camera)},
         {"gripper", codec::ToJson(config.default_gripper)},
-        {"png_unit_m", config.png_unit_m},
-        {"deformability", DeformabilityDefaultsJson()},
-        {"gqcnn", GqcnnDefaultsJson()}}},
+        {"png_unit_m", config.png_unit_m}}},
       {"robot", RobotInfoJson(config, robot_running)},
   };
   body["defaults"].update(codec::ToJson(config.fge));
+  body["defaults"].update(StrategyDefaultsJson());
   return http::Response::Json(200, body.dump());
 }
 
@@ -227,7 +192,7 @@ cv::Mat3b OverlayPicture(const GraspRequest& in, const engine::Plan& plan) {
       const engine::Instances& instances = *plan.instances;
       const cv::Mat3b map =
           io::ColorizeDeformability(instances.deformability, instances.foreground > 0.5f);
-      const int chosen = plan.target && plan.target->id > 0 ? plan.target->id : in.plan.target_id;
+      const int chosen = plan.chosen_target_id > 0 ? plan.chosen_target_id : in.plan.target_id;
       return chosen > 0 ? io::DrawOutline(map, instances.labels == chosen) : map;
     }
     case OverlayBackground::kDepth:
@@ -239,9 +204,10 @@ cv::Mat3b OverlayPicture(const GraspRequest& in, const engine::Plan& plan) {
 json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models& models,
                   double decode_ms, double total_ms) {
   const DepthUpload& up = in.upload;
+  const engine::Strategy& strategy = *engine::FindStrategy(in.plan.strategy);
   json list = json::array();
   for (std::size_t i = 0; i < plan.grasps.size(); ++i) {
-    list.push_back(GraspToJson(plan.grasps[i], static_cast<int>(i) + 1));
+    list.push_back(GraspToJson(plan.grasps[i], static_cast<int>(i) + 1, strategy));
   }
   json camera = codec::ToJson(up.camera);
   camera["source"] = up.camera_source;
@@ -253,7 +219,7 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
   timing["total"] = total_ms;
   const core::Scene& scene = plan.scene;
   json body = {
-      {"strategy", engine::StrategyName(in.plan.strategy)},
+      {"strategy", in.plan.strategy},
       {"stiffness_model", models.stiffness ? json("pix2stiffness") : json()},
       {"image",
        {{"width", up.depth.width()},
@@ -275,19 +241,7 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
       {"grasps", list},
       {"timing_ms", timing},
   };
-  if (const auto& g = plan.gqcnn) {
-    body["gqcnn"] = {
-        {"edge_pixels", g->edge_pixels}, {"antipodal_pairs", g->antipodal_pairs},
-        {"evaluated", g->evaluated},     {"sample_ms", g->sample_ms},
-        {"evaluate_ms", g->evaluate_ms}, {"decision_threshold", g->decision_threshold}};
-  }
-  if (const auto& t = plan.target) {
-    body["target"] = {{"id", t->id > 0 ? json(t->id) : json()},
-                      {"policy", core::TargetPolicyName(t->policy)},
-                      {"tried", t->tried_ids},
-                      {"fallback", t->fallback},
-                      {"soft_part_allowed", t->soft_part_allowed}};
-  }
+  strategy.WritePlanJson(plan, &body);
   return body;
 }
 

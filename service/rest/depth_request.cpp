@@ -8,6 +8,8 @@
 #include <map>
 #include <optional>
 
+#include "service/rest/strategy_fields.h"
+
 namespace softgrasp::rest {
 namespace {
 
@@ -130,47 +132,6 @@ const std::map<std::string, NumericOption>& NumericOptions() {
                  [](GraspRequest& r, double v) { r.plan.fge.grip_depth_m = v / 1000.0; })},
       {"min_depth_m", Overrides("depth", "min_depth_m", 1, false,
                                 [](GraspRequest& r, double v) { r.plan.min_depth_m = v; })},
-      // strategy=deformability (docs/deformability.md): Algorithm 1's K, L, M, R and the rules
-      // for partially deformable objects and soft obstacles.
-      {"min_target_area_px",
-       {0, 1e6, false,
-        [](GraspRequest& r, double v) { r.plan.deformability.min_target_area_px = v; }}},
-      {"slice_step_mm",
-       {1, 200, false,
-        [](GraspRequest& r, double v) { r.plan.deformability.slice_step_m = v / 1000.0; }}},
-      {"num_slices",
-       {1, 20, true,
-        [](GraspRequest& r, double v) { r.plan.deformability.num_slices = static_cast<int>(v); }}},
-      {"min_score",
-       {0, 1, false, [](GraspRequest& r, double v) { r.plan.deformability.min_score = v; }}},
-      {"stiff_part_fraction",
-       {0, 1, false,
-        [](GraspRequest& r, double v) { r.plan.deformability.stiff_part_fraction = v; }}},
-      {"min_part_contrast",
-       {0, 1, false,
-        [](GraspRequest& r, double v) { r.plan.deformability.min_part_contrast = v; }}},
-      {"soft_obstacle_threshold",
-       {0, 2, false,
-        [](GraspRequest& r, double v) { r.plan.deformability.soft_obstacle_threshold = v; }}},
-      {"max_press_depth_mm",
-       {0, 200, false,
-        [](GraspRequest& r, double v) { r.plan.deformability.max_press_depth_m = v / 1000.0; }}},
-      {"max_targets",
-       {1, 64, true,
-        [](GraspRequest& r, double v) { r.plan.deformability.max_targets = static_cast<int>(v); }}},
-      // strategy=gqcnn (docs/gqcnn.md): Dex-Net 2.0's candidate sampling and CEM.
-      {"gqcnn_seed_samples",
-       {1, 10000, true,
-        [](GraspRequest& r, double v) { r.plan.gqcnn.seed_samples = static_cast<int>(v); }}},
-      {"cem_iterations",
-       {0, 20, true,
-        [](GraspRequest& r, double v) { r.plan.gqcnn.cem_iterations = static_cast<int>(v); }}},
-      {"cem_samples",
-       {1, 10000, true,
-        [](GraspRequest& r, double v) { r.plan.gqcnn.cem_samples = static_cast<int>(v); }}},
-      {"gqcnn_seed",
-       {0, 9007199254740991.0, true,
-        [](GraspRequest& r, double v) { r.plan.gqcnn.seed = static_cast<std::uint64_t>(v); }}},
   };
   return options;
 }
@@ -306,29 +267,6 @@ core::Result<cv::Mat1w> DecodeLabels(const std::string& bytes, const config::Ser
   return labels;
 }
 
-// "0.5,0.75,1": fractions of the stroke in (0, 1], increasing, at most 8.
-core::Result<std::vector<double>> ParseOpeningFractions(const std::string& text) {
-  const auto bad = [&](const std::string& why) {
-    return MakeError(ErrorCode::kInvalidArgument,
-                     "opening_fractions must be up to 8 comma-separated fractions of the stroke "
-                     "in (0, 1], increasing (e.g. 0.5,0.75,1): " +
-                         why + ", got '" + text + "'",
-                     "opening_fractions");
-  };
-  std::vector<double> out;
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    const std::size_t comma = std::min(text.find(',', start), text.size());
-    auto v = ParseNumber("opening_fractions", text.substr(start, comma - start), 0, 1);
-    if (!v.ok() || !(v.value() > 0)) return bad("each must be a number in (0, 1]");
-    if (!out.empty() && !(v.value() > out.back())) return bad("not increasing");
-    out.push_back(v.value());
-    if (out.size() > 8) return bad("too many");
-    start = comma + 1;
-  }
-  return out;
-}
-
 // "U,V": a pixel of the image (column, row), integers.
 core::Result<cv::Point> ParseTargetPixel(const std::string& text, cv::Size image) {
   const auto bad = [&] {
@@ -352,23 +290,12 @@ core::Result<cv::Point> ParseTargetPixel(const std::string& text, cv::Size image
 
 }  // namespace
 
-// "strategy": a registered name the loaded models serve (default: the last one they serve).
-core::Result<engine::Strategy> ParseStrategy(const RequestFields& fields,
-                                             const engine::Models& models) {
+// "strategy": a registered name (default: the last one the loaded models serve).
+core::Result<const engine::Strategy*> ParseStrategy(const RequestFields& fields,
+                                                    const engine::Models& models) {
   const auto f = fields.values.find("strategy");
-  if (f == fields.values.end()) return engine::DefaultStrategy(models);
-  const std::optional<engine::Strategy> strategy = engine::StrategyByName(f->second);
-  if (!strategy) {
-    std::string expected;
-    const auto& all = engine::Strategies();
-    for (std::size_t i = 0; i < all.size(); ++i) {
-      expected += std::string(i == 0 ? "" : (i + 1 == all.size() ? " or " : ", ")) + "'" +
-                  all[i].name + "'";
-    }
-    return MakeError(ErrorCode::kInvalidArgument,
-                     "strategy must be " + expected + ", got '" + f->second + "'", "strategy");
-  }
-  return *strategy;
+  if (f == fields.values.end()) return &engine::DefaultStrategy(models);
+  return engine::StrategyNamed(f->second);
 }
 
 core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
@@ -387,8 +314,7 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   for (const auto& [key, text] : fields.values) {
     if (key == "format" || key == "strategy" || key == "draw" || key == "overlay" ||
         key == "mean_stiffness" || key == "instances" || key == "segmentation" || key == "target" ||
-        key == "target_px" || key == "target_policy" || key == "opening_fractions" ||
-        IsUploadField(key)) {
+        key == "target_px" || IsStrategyField(key) || IsUploadField(key)) {
       continue;
     }
     const auto option = NumericOptions().find(key);
@@ -404,8 +330,10 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   }
   auto strategy = ParseStrategy(fields, models);
   if (!strategy.ok()) return strategy.error();
-  plan.strategy = strategy.value();
-  if (auto why = engine::Unserved(models, plan.strategy)) return *why;
+  plan.strategy = strategy.value()->info().name;
+  auto strategy_options = ParseStrategyOptions(*strategy.value(), fields.values);
+  if (!strategy_options.ok()) return strategy_options.error();
+  plan.strategy_options = std::move(strategy_options).value();
   auto overlay = ParseChoice<OverlayBackground, 3>(
       fields.values, "overlay", OverlayBackground::kDepth, {"depth", "stiffness", "deformability"},
       {OverlayBackground::kDepth, OverlayBackground::kStiffness,
@@ -420,22 +348,6 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   if (out.overlay == OverlayBackground::kStiffness && !models.stiffness) {
     return MakeError(ErrorCode::kInvalidArgument,
                      "overlay 'stiffness' needs a stiffness model and none is loaded", "overlay");
-  }
-  auto policy = ParseChoice<core::TargetPolicy, 2>(
-      fields.values, "target_policy", core::TargetPolicy::kHighest, {"highest", "least_deformable"},
-      {core::TargetPolicy::kHighest, core::TargetPolicy::kLeastDeformable});
-  if (!policy.ok()) return policy.error();
-  plan.deformability.policy = policy.value();
-  if (const auto f = fields.values.find("opening_fractions"); f != fields.values.end()) {
-    auto fractions = ParseOpeningFractions(f->second);
-    if (!fractions.ok()) return fractions.error();
-    plan.deformability.opening_fractions = std::move(fractions).value();
-  }
-  if (plan.deformability.slice_step_m > plan.gripper.finger_length_m) {
-    return MakeError(ErrorCode::kInvalidArgument,
-                     "slice_step_mm must not exceed finger_length_mm (the fingertips go one "
-                     "slice step below the contact)",
-                     "slice_step_mm");
   }
   auto output = ResolveOutput(request, fields.values);
   if (!output.ok()) return output.error();
@@ -458,15 +370,7 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
   if (fields.segmask_bytes) {
     auto mask = io::DecodeMask(*fields.segmask_bytes, config.max_image_pixels);
     if (!mask.ok()) return mask.error();
-    const core::DepthImage& depth = out.upload.depth;
-    if (mask.value().cols != depth.width() || mask.value().rows != depth.height()) {
-      return MakeError(ErrorCode::kUnprocessable,
-                       "segmask is " + std::to_string(mask.value().cols) + "x" +
-                           std::to_string(mask.value().rows) + " but the depth image is " +
-                           std::to_string(depth.width()) + "x" + std::to_string(depth.height()),
-                       "segmask");
-    }
-    plan.region_of_interest = std::move(mask).value();
+    plan.region_of_interest = std::move(mask).value();  // its size is the engine's to check
   }
 
   auto instances =

@@ -33,10 +33,9 @@ enum class OverlayBackground { kDepth, kStiffness, kDeformability };
 ///
 /// Planning fields: the gripper (`*_mm`), FGE's (top_k, num_angles, num_height_steps,
 /// height_step_mm, grip_depth_mm), "strategy" (engine::Strategies() names; default: the last
-/// one the loaded models serve), strategy=deformability's (target_policy, min_target_area_px
-/// (K), slice_step_mm (L), num_slices (M), min_score (R), opening_fractions,
-/// stiff_part_fraction, min_part_contrast, soft_obstacle_threshold, max_press_depth_mm,
-/// max_targets), the file part "segmask" (GQ-CNN's convention: a PNG of the depth's size, non-zero
+/// one the loaded models serve), every strategy's own fields (its room's table,
+/// engine::Strategy::fields(): parsed into the chosen strategy's options, checked and unused for
+/// the others), the file part "segmask" (GQ-CNN's convention: a PNG of the depth's size, non-zero
 /// = contacts allowed), "min_depth_m" (default: the configuration's), "mean_stiffness" = true |
 /// false (fge grasps report the stiffness model's mean), the file part "labels" (a 16-bit PNG label
 /// image as POST /v1/segmentation?format=labels gives it, used instead of segmenting again),
@@ -54,7 +53,8 @@ struct GraspRequest {
   OverlayBackground overlay = OverlayBackground::kDepth;
 };
 
-/// Which strategies and overlays can be served, and the default strategy, follow from `models`.
+/// The default strategy and the overlays that can be served follow from `models`; whether they
+/// serve the strategy is the engine's to check.
 core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
                                              const config::ServiceConfig& config,
                                              const engine::Models& models);

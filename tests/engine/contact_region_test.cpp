@@ -159,10 +159,10 @@ TEST_P(PrimesenseWithoutHint, NoStrategyClosesOnTheGrippersOwnFingers) {
   ASSERT_EQ(object.size(), depth.depth_m.size());
   const cv::Mat1b fingers = FingersOf(depth, camera);
   ASSERT_GT(cv::countNonZero(fingers), 20000);
-  for (const StrategyInfo& info : Strategies()) {
-    SCOPED_TRACE(info.name);
+  for (const Strategy* strategy : Strategies()) {
+    SCOPED_TRACE(strategy->info().name);
     PlanOptions options;
-    options.strategy = info.strategy;
+    options.strategy = strategy->info().name;
     options.min_depth_m = 0;  // no hint
     auto plan = PlanGrasps(depth, camera, options, ShippedModels());
     ASSERT_TRUE(plan.ok()) << plan.error().message;

@@ -82,30 +82,72 @@ std::shared_ptr<const models::StiffnessModel> ShippedStiffness() {
 
 TEST(Strategies, AreRegisteredOnceByNameInOrderOfPreference) {
   std::set<std::string> names;
-  for (const StrategyInfo& info : Strategies()) {
-    EXPECT_TRUE(names.insert(info.name).second) << info.name;
-    EXPECT_EQ(StrategyByName(info.name), info.strategy);
-    EXPECT_STREQ(StrategyName(info.strategy), info.name);
+  for (const Strategy* s : Strategies()) {
+    EXPECT_TRUE(names.insert(s->info().name).second) << s->info().name;
+    EXPECT_EQ(FindStrategy(s->info().name), s);
   }
-  EXPECT_FALSE(StrategyByName("dexnet").has_value());
-  EXPECT_FALSE(StrategyByName("").has_value());
-  EXPECT_EQ(Strategies().front().strategy, Strategy::kFge);  // needs no model: always served
+  EXPECT_EQ(FindStrategy("dexnet"), nullptr);
+  EXPECT_EQ(FindStrategy(""), nullptr);
+  const auto unknown = StrategyNamed("dexnet");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_EQ(unknown.error().field, "strategy");
+  EXPECT_NE(unknown.error().message.find("'fge', 'gqcnn', 'stiffness' or 'deformability'"),
+            std::string::npos)
+      << unknown.error().message;
+  EXPECT_STREQ(Strategies().front()->info().name, "fge");  // needs no model: always served
+}
+
+// Each room's field table: unique names across strategies, defaults inside their ranges, and a
+// value written through a field reads back the same.
+TEST(Strategies, FieldTablesHoldTheirDefaultsAndRoundTripValues) {
+  std::set<std::string> names;
+  for (const Strategy* s : Strategies()) {
+    SCOPED_TRACE(s->info().name);
+    const auto defaults = s->DefaultOptions();
+    if (!s->fields().empty()) {
+      ASSERT_NE(defaults, nullptr) << "fields without options";
+    }
+    for (const StrategyField& f : s->fields()) {
+      SCOPED_TRACE(f.name);
+      EXPECT_TRUE(names.insert(f.name).second) << "two strategies name a field alike";
+      EXPECT_FALSE(f.doc.empty());
+      const FieldValue value = f.get(*defaults);
+      if (f.kind == StrategyField::Kind::kChoice) {
+        EXPECT_LT(std::get<double>(value), static_cast<double>(f.choices.size()));
+        auto changed = s->DefaultOptions();
+        f.set(*changed, FieldValue(static_cast<double>(f.choices.size() - 1)));
+        EXPECT_EQ(std::get<double>(f.get(*changed)), f.choices.size() - 1.0);
+      } else if (f.kind == StrategyField::Kind::kNumberList) {
+        for (double v : std::get<std::vector<double>>(value)) {
+          EXPECT_GE(v, f.min);
+          EXPECT_LE(v, f.max);
+        }
+      } else {
+        EXPECT_GE(std::get<double>(value), f.min);
+        EXPECT_LE(std::get<double>(value), f.max);
+        auto changed = s->DefaultOptions();
+        f.set(*changed, FieldValue(f.max));
+        EXPECT_DOUBLE_EQ(std::get<double>(f.get(*changed)), f.max);
+      }
+    }
+    EXPECT_FALSE(s->Validate(defaults.get(), PlanOptions{}, Scene().synth.camera).has_value());
+  }
 }
 
 TEST(Strategies, TheDefaultIsTheLastOneTheLoadedModelsServe) {
-  EXPECT_EQ(DefaultStrategy({}), Strategy::kFge);
-  EXPECT_EQ(ServedStrategies({}), std::vector<Strategy>{Strategy::kFge});
+  EXPECT_STREQ(DefaultStrategy({}).info().name, "fge");
+  EXPECT_EQ(ServedStrategies({}), std::vector<std::string>{"fge"});
   const Models stiffness{ShippedStiffness(), nullptr, nullptr};
-  EXPECT_EQ(DefaultStrategy(stiffness), Strategy::kStiffness);
-  EXPECT_TRUE(Serves(stiffness, Strategy::kStiffness));
-  EXPECT_FALSE(Serves(stiffness, Strategy::kDeformability));
-  const auto why = Unserved(stiffness, Strategy::kDeformability);
+  EXPECT_STREQ(DefaultStrategy(stiffness).info().name, "stiffness");
+  EXPECT_TRUE(Serves(stiffness, *FindStrategy("stiffness")));
+  EXPECT_FALSE(Serves(stiffness, *FindStrategy("deformability")));
+  const auto why = Unserved(stiffness, "deformability");
   ASSERT_TRUE(why.has_value());
   EXPECT_EQ(why->code, core::ErrorCode::kInvalidArgument);
   EXPECT_EQ(why->field, "strategy");
   EXPECT_NE(why->message.find("segmentation model"), std::string::npos) << why->message;
   EXPECT_NE(why->message.find("'fge' or 'stiffness'"), std::string::npos) << why->message;
-  EXPECT_FALSE(Unserved(stiffness, Strategy::kFge).has_value());
+  EXPECT_FALSE(Unserved(stiffness, "fge").has_value());
 }
 
 TEST(PlanGrasps, FgeIsTheCorePlannerOnThePreprocessedScene) {
@@ -121,12 +163,13 @@ TEST(PlanGrasps, FgeIsTheCorePlannerOnThePreprocessedScene) {
     EXPECT_EQ(plan.grasps[i].grasp.score, expected[i].score);
     EXPECT_TRUE(std::isnan(plan.grasps[i].grasp.mean_stiffness));
     EXPECT_FALSE(plan.grasps[i].instance_id.has_value());
-    EXPECT_FALSE(plan.grasps[i].deformability.has_value());
+    EXPECT_EQ(plan.grasps[i].details, nullptr);
   }
   EXPECT_EQ(plan.scene.floor.d, scene.value().floor.d);
   EXPECT_TRUE(plan.stiffness.empty());
   EXPECT_FALSE(plan.instances.has_value());
-  EXPECT_FALSE(plan.target.has_value());
+  EXPECT_EQ(plan.details, nullptr);
+  EXPECT_EQ(plan.chosen_target_id, 0);
   EXPECT_FALSE(plan.timing.stiffness_ran);
   EXPECT_GT(plan.timing.detect_ms, 0.0);
   EXPECT_GE(plan.timing.total_ms, plan.timing.preprocess_ms + plan.timing.detect_ms);
@@ -134,7 +177,7 @@ TEST(PlanGrasps, FgeIsTheCorePlannerOnThePreprocessedScene) {
 
 TEST(PlanGrasps, AGivenStiffnessMapStandsInForTheModel) {
   PlanOptions options;
-  options.strategy = Strategy::kStiffness;
+  options.strategy = "stiffness";
   options.stiffness_map = MapOf(0.2f, 0.9f);
   const Plan plan = MustPlan(options);  // no model loaded
   ASSERT_FALSE(plan.grasps.empty());
@@ -218,11 +261,11 @@ TEST(PlanGrasps, RefusesWhatTheCallerGotWrong) {
     return plan.ok() ? core::Error{} : plan.error();
   };
   PlanOptions o;
-  o.strategy = Strategy::kStiffness;  // no model, no map
+  o.strategy = "stiffness";  // no model, no map
   EXPECT_EQ(error(o).field, "strategy");
-  o.strategy = Strategy::kDeformability;
+  o.strategy = "deformability";
   EXPECT_EQ(error(o).field, "strategy");
-  o.strategy = Strategy::kGqcnn;
+  o.strategy = "gqcnn";
   EXPECT_EQ(error(o).field, "strategy");
   EXPECT_NE(error(o).message.find("GQ-CNN model"), std::string::npos) << error(o).message;
   EXPECT_NE(error(o).message.find("--gqcnn-model"), std::string::npos) << error(o).message;
@@ -235,7 +278,7 @@ TEST(PlanGrasps, RefusesWhatTheCallerGotWrong) {
   EXPECT_EQ(error(o).field, "segmask");
   o = {};
   o.stiffness_map = cv::Mat1f(10, 10, 0.5f);
-  o.strategy = Strategy::kStiffness;
+  o.strategy = "stiffness";
   EXPECT_EQ(error(o).field, "stiffness_map");
   o = {};
   o.min_depth_m = -1;

@@ -3,12 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 #include <string>
 #include <utility>
 
+#include "service/engine/engine.h"
 #include "service/models/segmentation_model.h"
 #include "service/rest/api.h"
 #include "tests/rest/openapi_schema.h"
@@ -48,6 +51,67 @@ TEST(OpenApiContractTest, EveryDocumentedRouteIsServedAndViceVersa) {
     served.emplace(Lower(method), pattern);
   }
   EXPECT_EQ(documented, served);
+}
+
+// The strategies' field tables (their rooms, service/engine/strategies/) and openapi.yaml agree:
+// every table field is a documented query parameter and multipart field of POST /v1/grasps with
+// the table's type, range, default and doc line ("strategy=NAME: DOC"), and every parameter
+// documented for one strategy is in that strategy's table.
+TEST(OpenApiContractTest, StrategyFieldTablesAreWhatTheSpecDocuments) {
+  const json spec = LoadSpec();
+  const json& grasps = spec["paths"]["/v1/grasps"]["post"];
+  std::map<std::string, json> parameters;
+  for (const json& p : grasps["parameters"]) parameters[p["name"].get<std::string>()] = p;
+  const json& form =
+      grasps["requestBody"]["content"]["multipart/form-data"]["schema"]["properties"];
+  std::set<std::string> in_tables;
+  for (const engine::Strategy* strategy : engine::Strategies()) {
+    const std::string name = strategy->info().name;
+    const auto defaults = strategy->DefaultOptions();
+    for (const engine::StrategyField& f : strategy->fields()) {
+      SCOPED_TRACE(name + "." + f.name);
+      in_tables.insert(f.name);
+      ASSERT_TRUE(parameters.count(f.name)) << "not a documented query parameter";
+      ASSERT_TRUE(form.contains(f.name)) << "not a documented multipart field";
+      const json& p = parameters[f.name];
+      EXPECT_EQ(p.value("description", ""), "strategy=" + name + ": " + f.doc);
+      const json& schema = p["schema"];
+      const json expected_default = engine::FieldValueJson(f, f.get(*defaults));
+      using Kind = engine::StrategyField::Kind;
+      switch (f.kind) {
+        case Kind::kChoice:
+          EXPECT_EQ(schema["type"], "string");
+          EXPECT_EQ(schema["enum"], json(f.choices));
+          EXPECT_EQ(schema["default"], expected_default);
+          break;
+        case Kind::kNumberList: {
+          EXPECT_EQ(schema["type"], "string");
+          std::string joined;
+          for (const json& v : expected_default) {
+            std::ostringstream text;
+            text << v.get<double>();
+            joined += (joined.empty() ? "" : ",") + text.str();
+          }
+          EXPECT_EQ(schema["default"], joined);
+          break;
+        }
+        case Kind::kNumber:
+        case Kind::kInteger:
+          EXPECT_EQ(schema["type"], f.kind == Kind::kInteger ? "integer" : "number");
+          EXPECT_EQ(form[f.name]["type"], schema["type"]);
+          EXPECT_DOUBLE_EQ(schema["minimum"].get<double>(), f.min);
+          EXPECT_DOUBLE_EQ(schema["maximum"].get<double>(), f.max);
+          EXPECT_DOUBLE_EQ(schema["default"].get<double>(), expected_default.get<double>());
+          break;
+      }
+    }
+  }
+  for (const auto& [field, p] : parameters) {
+    const std::string description = p.value("description", "");
+    if (description.rfind("strategy=", 0) != 0) continue;
+    EXPECT_TRUE(in_tables.count(field)) << field << " is documented for a strategy that has no "
+                                        << "such field in its table";
+  }
 }
 
 TEST(OpenApiContractTest, ResponsesMatchTheirSchemas) {

@@ -17,6 +17,7 @@
 #include "service/core/fge_stiffness.h"
 #include "service/core/preprocess.h"
 #include "service/engine/engine.h"
+#include "service/engine/strategies/deformability.h"
 #include "service/io/depth_codec.h"
 #include "service/models/stiffness_model.h"
 #include "tests/rest/server_fixture.h"
@@ -68,7 +69,7 @@ const Expected& Direct() {
 }
 
 // The same frame planned by the engine with the shipped models.
-engine::Plan EnginePlan(engine::Strategy strategy, bool mean_stiffness = false) {
+engine::Plan EnginePlan(const std::string& strategy, bool mean_stiffness = false) {
   engine::PlanOptions options;
   options.strategy = strategy;
   options.mean_stiffness = mean_stiffness;
@@ -203,7 +204,7 @@ TEST_F(StiffnessApiTest, StiffnessIsTheDefaultStrategyAndMatchesThePlanner) {
   EXPECT_EQ(body["strategy"], "stiffness");
   EXPECT_EQ(body["stiffness_model"], "pix2stiffness");
   EXPECT_TRUE(body["timing_ms"]["stiffness"].is_number());
-  const engine::Plan plan = EnginePlan(engine::Strategy::kStiffness);
+  const engine::Plan plan = EnginePlan("stiffness");
   // The engine ran the model on the same scene: the map /v1/stiffness answers.
   EXPECT_LE(cv::norm(plan.stiffness, Direct().map, cv::NORM_INF), 1e-6);
   const auto& expected = plan.grasps;
@@ -237,7 +238,7 @@ TEST_F(StiffnessApiTest, ClassicStrategyRunsTheModelOnlyWhenMeanStiffnessIsAsked
   EXPECT_EQ(body["strategy"], "fge");
   EXPECT_TRUE(body["timing_ms"]["stiffness"].is_number());
   ASSERT_EQ(body["grasps"].size(), plain_body["grasps"].size());
-  const engine::Plan plan = EnginePlan(engine::Strategy::kFge, /*mean_stiffness=*/true);
+  const engine::Plan plan = EnginePlan("fge", /*mean_stiffness=*/true);
   ASSERT_EQ(body["grasps"].size(), plan.grasps.size());
   for (std::size_t i = 0; i < plan.grasps.size(); ++i) {
     const core::Grasp& expected = plan.grasps[i].grasp;
@@ -358,16 +359,17 @@ TEST(GraspsHandlerTest, EveryStrategyAnswersWhatTheEnginePlans) {
                               testing::ShippedGqcnnModel()};
   const RunningServer server({}, nullptr, nullptr, models.stiffness, models.segmentation,
                              models.gqcnn);
-  for (const engine::StrategyInfo& info : engine::Strategies()) {
+  for (const engine::Strategy* strategy : engine::Strategies()) {
+    const engine::StrategyInfo& info = strategy->info();
     SCOPED_TRACE(info.name);
-    ASSERT_TRUE(engine::Serves(models, info.strategy)) << "is the model for it shipped?";
+    ASSERT_TRUE(engine::Serves(models, *strategy)) << "is the model for it shipped?";
     const auto reply = server.Send(MultipartRequest(
         "/v1/grasps", Upload({{"strategy", info.name, ""}, {"instances", "true", ""}})));
     ASSERT_EQ(reply.status, 200) << reply.body;
     const json body = json::parse(reply.body);
     EXPECT_EQ(body["strategy"], info.name);
     engine::PlanOptions options;
-    options.strategy = info.strategy;
+    options.strategy = info.name;
     options.report_instances = true;
     auto plan = engine::PlanGrasps(Direct().depth, Direct().camera, options, models);
     ASSERT_TRUE(plan.ok()) << plan.error().message;
@@ -386,9 +388,14 @@ TEST(GraspsHandlerTest, EveryStrategyAnswersWhatTheEnginePlans) {
       EXPECT_EQ(g["opening_m"].get<double>(), e.opening_m);
       ASSERT_TRUE(expected[i].instance_id.has_value());
       EXPECT_EQ(g["instance_id"].get<int>(), *expected[i].instance_id);
-      EXPECT_EQ(g["deformability"].is_null(), !expected[i].deformability.has_value());
+      // Each strategy's details under its key, null under the others' keys.
+      for (const engine::Strategy* other : engine::Strategies()) {
+        const std::string key = other->grasp_details_key();
+        if (key.empty()) continue;
+        EXPECT_EQ(g[key].is_null(), other != strategy || expected[i].details == nullptr) << key;
+      }
     }
-    EXPECT_EQ(body.contains("target"), plan.value().target.has_value());
+    EXPECT_EQ(body.contains("target"), engine::TargetChoiceOf(plan.value()) != nullptr);
   }
 }
 

@@ -247,7 +247,7 @@ describe('softgrasp page in chromium', () => {
     assert.deepEqual(strategy,
       { options: ['fge', 'gqcnn', 'stiffness', 'deformability'], value: 'deformability' });
     await page.selectOption('#strategy', 'stiffness');
-    assert.equal(await page.isVisible('#target-policy-field'), false);
+    assert.equal(await page.isVisible('#strategy-field-target_policy'), false);
     assert.equal(await page.isVisible('#picture-choice'), false, 'no view switch before results');
 
     const result = await findGrasps(page);
@@ -318,7 +318,7 @@ describe('softgrasp page in chromium', () => {
     assert.deepEqual(info.overlays, ['depth', 'stiffness', 'deformability']);
     const { context, page, errors } = await openPage();
     assert.equal(await page.inputValue('#strategy'), 'deformability');
-    assert.equal(await page.isVisible('#target-policy-field'), true);
+    assert.equal(await page.isVisible('#strategy-field-target_policy'), true);
     assert.equal(await page.inputValue('#target_policy'), 'highest');
     await page.selectOption('#target_policy', 'least_deformable');
 
@@ -352,7 +352,7 @@ describe('softgrasp page in chromium', () => {
     assert.equal(await page.textContent('#legend-high'), 'hard 1.0');
 
     await page.selectOption('#strategy', 'fge');
-    assert.equal(await page.isVisible('#target-policy-field'), false);
+    assert.equal(await page.isVisible('#strategy-field-target_policy'), false);
     assert.deepEqual(errors, []);
     await context.close();
   });
@@ -486,7 +486,7 @@ describe('softgrasp page in chromium, server without models', () => {
     assert.deepEqual(await canvasPixels(page, '#grasp-canvas', fingerCentres(result.grasps[0])),
       [GREEN, GREEN]);
     for (const hidden of ['#picture-choice', '#stiffness-legend', '#download-stiffness',
-      '#download-deformability', '#target-policy-field']) {
+      '#download-deformability', '#strategy-field-target_policy']) {
       assert.equal(await page.isVisible(hidden), false, hidden);
     }
     assert.equal(await page.getAttribute('#grasp-canvas', 'data-picture'), 'depth');

@@ -1,6 +1,7 @@
 // The page's pure modules under node: error messages from API bodies, file names from
-// Content-Disposition, the grasp geometry the canvas draws, the fractal request body, the
-// stiffness view's choices from /v1/info, the objects panel's choices and label decoding, the mesh
+// Content-Disposition, the grasp geometry the canvas draws, the strategy fields' inputs, the
+// fractal request body, the stiffness view's choices from /v1/info, the objects panel's choices
+// and label decoding, the mesh
 // panel's query, scale and table rows, and the robot panel's command body, states, result numbers
 // and error messages.
 import assert from 'node:assert/strict';
@@ -24,6 +25,7 @@ import {
 import {
   meanStiffnessText, stiffnessForm, stiffnessModel, strategyChoices,
 } from '../../web/src/stiffness.js';
+import { fieldLabel, strategyFieldInputs } from '../../web/src/strategy_fields_model.js';
 
 describe('API errors', () => {
   it('shows the message and field of the error body', () => {
@@ -426,5 +428,49 @@ describe('mesh panel model', () => {
     assert.equal(lengthText(1), '1 m');
     assert.equal(lengthText(0.001), '1 mm');
     assert.equal(lengthText(0), '');
+  });
+});
+
+describe('strategy fields', () => {
+  const info = {
+    strategy_fields: [
+      { name: 'fge', fields: [] },
+      {
+        name: 'deformability',
+        fields: [
+          { name: 'target_policy', kind: 'choice', unit: '', default: 'highest', doc: 'which',
+            choices: ['highest', 'least_deformable'] },
+          { name: 'slice_step_mm', kind: 'number', unit: 'mm', default: 10, doc: 'L',
+            minimum: 1, maximum: 200 },
+          { name: 'num_slices', kind: 'integer', unit: '', default: 5, doc: 'M', minimum: 1,
+            maximum: 20 },
+          { name: 'opening_fractions', kind: 'number_list', unit: '', default: [0.5, 0.75, 1],
+            doc: 'openings', minimum: 0, maximum: 1, max_count: 8 },
+          { name: 'future', kind: 'tensor', default: 0 },
+          { kind: 'number' },
+        ],
+      },
+    ],
+  };
+  it('builds one input per field of the selected strategy, in the table\'s order', () => {
+    const inputs = strategyFieldInputs(info, 'deformability');
+    assert.deepEqual(inputs.map((i) => [i.name, i.input]), [['target_policy', 'select'],
+      ['slice_step_mm', 'number'], ['num_slices', 'number'], ['opening_fractions', 'text']]);
+    assert.deepEqual(inputs[0].options, ['highest', 'least_deformable']);
+    assert.equal(inputs[0].defaultText, 'highest');
+    assert.deepEqual([inputs[1].min, inputs[1].max, inputs[1].step], [1, 200, 'any']);
+    assert.equal(inputs[2].step, '1');
+    assert.equal(inputs[3].defaultText, '0.5,0.75,1');
+  });
+  it('gives none for a strategy without fields, an unknown one, or no info', () => {
+    assert.deepEqual(strategyFieldInputs(info, 'fge'), []);
+    assert.deepEqual(strategyFieldInputs(info, 'nope'), []);
+    assert.deepEqual(strategyFieldInputs(undefined, 'deformability'), []);
+    assert.deepEqual(strategyFieldInputs({ strategy_fields: 'x' }, 'deformability'), []);
+  });
+  it('labels a field by its name and unit', () => {
+    assert.equal(fieldLabel({ name: 'max_press_depth_mm', unit: 'mm' }), 'Max press depth (mm)');
+    assert.equal(fieldLabel({ name: 'min_target_area_px', unit: 'px' }), 'Min target area (px)');
+    assert.equal(fieldLabel({ name: 'cem_samples', unit: '' }), 'Cem samples');
   });
 });

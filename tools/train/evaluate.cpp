@@ -15,6 +15,7 @@
 #include "service/core/metrics.h"
 #include "service/core/preprocess.h"
 #include "service/engine/engine.h"
+#include "service/engine/strategies/stiffness.h"
 #include "service/models/dataset.h"
 #include "service/models/stiffness_model.h"
 #include "sim/dataset/scene_gen.h"
@@ -412,9 +413,11 @@ int RunEvaluate(std::vector<std::string> argv) {
     const engine::Models engine_models;  // none loaded: every map is given
     engine::PlanOptions options;
     options.region_of_interest = roi;
-    options.stiffness = stiffness_params;
-    const auto plan = [&](engine::Strategy strategy, const cv::Mat1f& map) {
+    auto stiffness_options = std::make_shared<engine::StiffnessOptions>();
+    stiffness_options->params = stiffness_params;
+    const auto plan = [&](const std::string& strategy, const cv::Mat1f& map) {
       options.strategy = strategy;
+      options.strategy_options = strategy == "stiffness" ? stiffness_options : nullptr;
       options.stiffness_map = map;
       std::vector<core::Grasp> grasps;
       auto planned = engine::PlanGrasps(s.depth, s.camera, options, engine_models);
@@ -427,10 +430,10 @@ int RunEvaluate(std::vector<std::string> argv) {
       Execute(g.scene, raycaster.value(), world_from_camera, grasps, options.gripper, s.stiffness,
               s.labels, i, per_grasp, stats);
     };
-    execute(plan(engine::Strategy::kFge, cv::Mat1f()), &fge);
-    execute(plan(engine::Strategy::kStiffness, predicted), &stiff);
-    execute(plan(engine::Strategy::kStiffness, s.stiffness), &oracle);
-    if (compared) execute(plan(engine::Strategy::kStiffness, predicted_compared), &stiff_compared);
+    execute(plan("fge", cv::Mat1f()), &fge);
+    execute(plan("stiffness", predicted), &stiff);
+    execute(plan("stiffness", s.stiffness), &oracle);
+    if (compared) execute(plan("stiffness", predicted_compared), &stiff_compared);
   }
   bar.Update(n);
   std::sort(predict_ms.begin(), predict_ms.end());

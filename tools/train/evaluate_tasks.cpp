@@ -14,6 +14,7 @@
 #include "service/codec/json_codec.h"
 #include "service/core/fge_deformability.h"
 #include "service/engine/engine.h"
+#include "service/engine/strategies/deformability.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 #include "service/segmentation/instance_metrics.h"
@@ -91,18 +92,17 @@ sim::SceneSpec TaskSpec(Task task) {
 }
 
 struct Planner {
-  engine::Strategy strategy;
+  std::string strategy;  ///< a registered strategy's name
   core::TargetPolicy policy = core::TargetPolicy::kHighest;
   std::string name;
 };
 
 std::vector<Planner> Planners(bool stiffness_model) {
-  std::vector<Planner> out = {{engine::Strategy::kFge, {}, "fge"}};
-  if (stiffness_model) out.push_back({engine::Strategy::kStiffness, {}, "stiffness"});
+  std::vector<Planner> out = {{"fge", {}, "fge"}};
+  if (stiffness_model) out.push_back({"stiffness", {}, "stiffness"});
+  out.push_back({"deformability", core::TargetPolicy::kHighest, "deformability_highest"});
   out.push_back(
-      {engine::Strategy::kDeformability, core::TargetPolicy::kHighest, "deformability_highest"});
-  out.push_back({engine::Strategy::kDeformability, core::TargetPolicy::kLeastDeformable,
-                 "deformability_least_deformable"});
+      {"deformability", core::TargetPolicy::kLeastDeformable, "deformability_least_deformable"});
   return out;
 }
 
@@ -147,11 +147,15 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
   engine::PlanOptions options;
   options.strategy = p.strategy;
   options.gripper = gripper;
-  options.deformability = models.deformability;
-  options.deformability.policy = p.policy;
+  if (p.strategy == "deformability") {
+    auto deformability = std::make_shared<engine::DeformabilityOptions>();
+    deformability->params = models.deformability;
+    deformability->params.policy = p.policy;
+    options.strategy_options = std::move(deformability);
+  }
   options.region_of_interest = roi;
   if (!target_mask.empty()) {
-    if (engine::InfoOf(p.strategy).plans_target) {
+    if (engine::FindStrategy(p.strategy)->info().plans_target) {
       options.target_px = ClickedPixel(target_mask);
       if (!options.target_px) {
         out.target_found = false;
@@ -170,7 +174,7 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
   out.target_found = !plan.value().target_not_found;
   // The named target's instance: the one that gave the grasps, else the one planned first.
   int chosen_id = 0;
-  if (const auto& t = plan.value().target) {
+  if (const engine::TargetChoice* t = engine::TargetChoiceOf(plan.value())) {
     chosen_id = t->id > 0 ? t->id : (t->tried_ids.empty() ? 0 : t->tried_ids.front());
   }
   if (!target_mask.empty() && chosen_id > 0 && plan.value().instances) {
@@ -178,7 +182,11 @@ Plan RunPlanner(const Planner& p, const core::DepthImage& depth, const core::Cam
         segmentation::MaskIou(plan.value().instances->labels == chosen_id, target_mask);
   }
   for (const engine::PlannedGrasp& g : plan.value().grasps) out.grasps.push_back(g.grasp);
-  if (!plan.value().grasps.empty()) out.best = plan.value().grasps.front().deformability;
+  if (!plan.value().grasps.empty()) {
+    if (const auto* record = engine::DeformabilityRecordOf(plan.value().grasps.front())) {
+      out.best = *record;
+    }
+  }
   out.detect_ms = plan.value().timing.total_ms;
   out.segmentation_ms = plan.value().timing.segmentation_ms;
   out.planner_ms = plan.value().timing.detect_ms;

@@ -10,6 +10,7 @@
 #include "service/cli/args.h"
 #include "service/cli/files.h"
 #include "service/engine/engine.h"
+#include "service/engine/strategies/gqcnn.h"
 #include "service/mesh/mesh_io.h"
 #include "service/mesh/mesh_prepare.h"
 #include "service/models/gqcnn_model.h"
@@ -43,8 +44,8 @@ int Fail(const std::string& message) {
 json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 struct Planner {
-  std::string name;  // "fge" or "gqcnn:<model file stem>"
-  engine::Strategy strategy = engine::Strategy::kFge;
+  std::string name;              // "fge" or "gqcnn:<model file stem>"
+  std::string strategy = "fge";  // a registered strategy: "fge" or "gqcnn"
   engine::Models models;
   bool clearance_check = true;  // gqcnn::PolicyParams::check_clearance
   bool contact_check = true;    // gqcnn::PolicyParams::check_contacts
@@ -91,9 +92,13 @@ void RunScene(const sim::SimScene& scene, const sim::RenderOptions& render,
     options.strategy = planners[p].strategy;
     options.gripper = gripper;
     options.fge.top_k = 1;
-    options.gqcnn.seed = scene.seed;
-    options.gqcnn.check_clearance = planners[p].clearance_check;
-    options.gqcnn.check_contacts = planners[p].contact_check;
+    if (planners[p].strategy == "gqcnn") {
+      auto gqcnn = std::make_shared<engine::GqcnnOptions>();
+      gqcnn->policy.seed = scene.seed;
+      gqcnn->policy.check_clearance = planners[p].clearance_check;
+      gqcnn->policy.check_contacts = planners[p].contact_check;
+      options.strategy_options = std::move(gqcnn);
+    }
     options.region_of_interest = workspace;
     auto plan = engine::PlanGrasps(views.depth, render.camera, options, planners[p].models);
     out.success.push_back(0.0);
@@ -208,11 +213,11 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
     return Fail("nothing to do: give --single-scenes N and/or --clutter-scenes N");
   }
 
-  std::vector<Planner> planners = {{"fge", engine::Strategy::kFge, {}}};
+  std::vector<Planner> planners = {{"fge", "fge", {}}};
   for (const std::string& path : model_paths) {
     auto model = models::GqcnnModel::Load(path);
     if (!model.ok()) return Fail(model.error().message);
-    Planner p{"gqcnn:" + fs::path(path).stem().string(), engine::Strategy::kGqcnn, {}};
+    Planner p{"gqcnn:" + fs::path(path).stem().string(), "gqcnn", {}};
     p.models.gqcnn = std::make_shared<const models::GqcnnModel>(std::move(model).value());
     planners.push_back(p);
     if (without_contact_check) {  // the same network, contacts not checked

@@ -8,13 +8,15 @@
 // depth and intrinsics, gives the stiffness map the grasps can be drawn on instead. Once the
 // objects panel (src/segmentation.js) has segmented the image, the requests carry its label image
 // as the `labels` part (each grasp then names its object, at no extra cost: the service does not
-// segment again), and target=ID when an object is picked there. With strategy=deformability the
-// target policy goes along, and a fifth request (format=png&draw=none&overlay=deformability with
-// the chosen target) gives the segmentation model's deformability map with the target outlined.
+// segment again), and target=ID when an object is picked there. The selected strategy's own
+// fields (built from GET /v1/info's strategy_fields) go along; with strategy=deformability a
+// fifth request (format=png&draw=none&overlay=deformability with the chosen target) gives the
+// segmentation model's deformability map with the target outlined.
 
 import { call, describeError } from './api.js';
 import { angleDegrees, graspShape, isDrawable } from './grasp_geometry.js';
 import { meanStiffnessText, stiffnessForm, stiffnessModel, strategyChoices } from './stiffness.js';
+import { strategyFieldInputs } from './strategy_fields_model.js';
 import {
   acceptDroppedFile, clearError, fileSizeText, fixed, saveBlob, setDownload, showError,
   whileBusy,
@@ -66,20 +68,53 @@ function applyDefaults(root, info) {
     strategy.append(option);
   }
   strategy.value = choices.selected;
-  const policy = root.querySelector('#target_policy');
-  const policies = info && Array.isArray(info.target_policies) ? info.target_policies : [];
-  for (const option of [...policy.options]) {
-    if (policies.length && !policies.includes(option.value)) option.remove();
-  }
-  const defaultPolicy = info && info.defaults && info.defaults.deformability
-    && info.defaults.deformability.target_policy;
-  if (policies.includes(defaultPolicy)) policy.value = defaultPolicy;
 }
 
-/** The target policy select only matters to strategy=deformability. */
-function showPolicyField(root) {
-  root.querySelector('#target-policy-field').hidden =
-    root.querySelector('#strategy').value !== 'deformability';
+/**
+ * The selected strategy's own fields (GET /v1/info's strategy_fields): a select preselected
+ * with the default for a choice, a number input with the range (the default as placeholder, left
+ * empty = the default) for numbers, a text input for a list of numbers. Each sits in a div with
+ * id "strategy-field-NAME"; the inputs have the field's name as id.
+ */
+function renderStrategyFields(root, info) {
+  const container = root.querySelector('#strategy-fields');
+  const strategy = root.querySelector('#strategy').value;
+  const doc = root.ownerDocument || document;
+  container.replaceChildren();
+  for (const spec of strategyFieldInputs(info, strategy)) {
+    const wrapper = doc.createElement('div');
+    wrapper.id = `strategy-field-${spec.name}`;
+    const label = doc.createElement('label');
+    label.htmlFor = spec.name;
+    label.textContent = spec.label;
+    label.title = spec.doc;
+    let input;
+    if (spec.input === 'select') {
+      input = doc.createElement('select');
+      for (const value of spec.options) {
+        const option = doc.createElement('option');
+        option.value = value;
+        option.textContent = value.replace(/_/g, ' ');
+        input.append(option);
+      }
+      if (spec.options.includes(spec.defaultText)) input.value = spec.defaultText;
+    } else {
+      input = doc.createElement('input');
+      input.type = spec.input;
+      if (spec.input === 'number') {
+        if (typeof spec.min === 'number') input.min = String(spec.min);
+        if (typeof spec.max === 'number') input.max = String(spec.max);
+        input.step = spec.step;
+      }
+      input.placeholder = spec.defaultText;
+    }
+    input.id = spec.name;
+    input.name = spec.name;
+    input.title = spec.doc;
+    input.dataset.strategyField = 'true';
+    wrapper.append(label, input);
+    container.append(wrapper);
+  }
 }
 
 const PICTURE_CAPTIONS = {
@@ -108,10 +143,10 @@ function buildForm(root, depthFile, objects) {
     const value = root.querySelector(`#${name}`).value.trim();
     if (value !== '') form.append(name, value);
   }
-  const strategy = root.querySelector('#strategy').value;
-  form.append('strategy', strategy);
-  if (strategy === 'deformability') {
-    form.append('target_policy', root.querySelector('#target_policy').value);
+  form.append('strategy', root.querySelector('#strategy').value);
+  for (const input of root.querySelectorAll('#strategy-fields [data-strategy-field]')) {
+    const value = input.value.trim();
+    if (value !== '') form.append(input.name, value);
   }
   if (objects && objects.labels) {
     form.append('labels', objects.labels, 'labels.png');
@@ -260,8 +295,8 @@ export function mountGraspsPanel(root, info) {
   const stiffnessDownload = root.querySelector('#download-stiffness');
   const deformabilityDownload = root.querySelector('#download-deformability');
   applyDefaults(root, info);
-  showPolicyField(root);
-  root.querySelector('#strategy').addEventListener('change', () => showPolicyField(root));
+  renderStrategyFields(root, info);
+  root.querySelector('#strategy').addEventListener('change', () => renderStrategyFields(root, info));
   // Fixed for the page's life: info is read once at load.
   const hasStiffness = stiffnessModel(info) !== null;
 
