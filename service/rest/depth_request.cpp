@@ -290,27 +290,29 @@ core::Result<cv::Point> ParseTargetPixel(const std::string& text, cv::Size image
 
 }  // namespace
 
-// "strategy": a registered name (default: the last one the loaded models serve).
-core::Result<const engine::Strategy*> ParseStrategy(const RequestFields& fields,
-                                                    const engine::Models& models) {
+namespace {
+
+using Stage = std::optional<core::Error>;
+
+// "strategy": a registered name (default: the last one the loaded models serve), and that
+// strategy's own fields into its options.
+Stage ParseStrategyFields(const RequestFields& fields, const engine::Models& models,
+                          engine::PlanOptions* plan) {
   const auto f = fields.values.find("strategy");
-  if (f == fields.values.end()) return &engine::DefaultStrategy(models);
-  return engine::StrategyNamed(f->second);
+  auto strategy = f == fields.values.end()
+                      ? core::Result<const engine::Strategy*>(&engine::DefaultStrategy(models))
+                      : engine::StrategyNamed(f->second);
+  if (!strategy.ok()) return strategy.error();
+  plan->strategy = strategy.value()->info().name;
+  auto options = ParseStrategyOptions(*strategy.value(), fields.values);
+  if (!options.ok()) return options.error();
+  plan->strategy_options = std::move(options).value();
+  return std::nullopt;
 }
 
-core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
-                                             const config::ServiceConfig& config,
-                                             const engine::Models& models) {
-  auto collected = CollectFields(request);
-  if (!collected.ok()) return collected.error();
-  const RequestFields& fields = collected.value();
-
-  GraspRequest out;
-  engine::PlanOptions& plan = out.plan;
-  plan.gripper = config.default_gripper;
-  plan.fge = config.fge;
-  plan.min_depth_m = config.min_depth_m;
-
+// The gripper's, FGE's and min_depth_m: numbers within their settings' limits. Any other field
+// that no stage reads is unknown.
+Stage ParseNumericFields(const RequestFields& fields, GraspRequest* out) {
   for (const auto& [key, text] : fields.values) {
     if (key == "format" || key == "strategy" || key == "draw" || key == "overlay" ||
         key == "mean_stiffness" || key == "instances" || key == "segmentation" || key == "target" ||
@@ -326,53 +328,80 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
     if (option->second.integer && v.value() != std::floor(v.value())) {
       return MakeError(ErrorCode::kInvalidArgument, key + " must be an integer", key);
     }
-    option->second.apply(out, v.value());
+    option->second.apply(*out, v.value());
   }
-  auto strategy = ParseStrategy(fields, models);
-  if (!strategy.ok()) return strategy.error();
-  plan.strategy = strategy.value()->info().name;
-  auto strategy_options = ParseStrategyOptions(*strategy.value(), fields.values);
-  if (!strategy_options.ok()) return strategy_options.error();
-  plan.strategy_options = std::move(strategy_options).value();
+  return std::nullopt;
+}
+
+// How to answer: overlay, format, draw, and mean_stiffness (each grasp's mean of the map).
+Stage ParseAnswerFields(const http::Request& request, const RequestFields& fields,
+                        const engine::Models& models, GraspRequest* out) {
   auto overlay = ParseChoice<OverlayBackground, 3>(
       fields.values, "overlay", OverlayBackground::kDepth, {"depth", "stiffness", "deformability"},
       {OverlayBackground::kDepth, OverlayBackground::kStiffness,
        OverlayBackground::kDeformability});
   if (!overlay.ok()) return overlay.error();
-  out.overlay = overlay.value();
-  if (out.overlay == OverlayBackground::kDeformability && !models.segmentation) {
+  out->overlay = overlay.value();
+  if (out->overlay == OverlayBackground::kDeformability && !models.segmentation) {
     return MakeError(ErrorCode::kInvalidArgument,
                      "overlay 'deformability' needs a segmentation model and none is loaded",
                      "overlay");
   }
-  if (out.overlay == OverlayBackground::kStiffness && !models.stiffness) {
+  if (out->overlay == OverlayBackground::kStiffness && !models.stiffness) {
     return MakeError(ErrorCode::kInvalidArgument,
                      "overlay 'stiffness' needs a stiffness model and none is loaded", "overlay");
   }
   auto output = ResolveOutput(request, fields.values);
   if (!output.ok()) return output.error();
-  out.output = output.value();
+  out->output = output.value();
   auto draw = ParseChoice<bool, 2>(fields.values, "draw", true, {"grasps", "none"}, {true, false});
   if (!draw.ok()) return draw.error();
-  out.draw_grasps = draw.value();
+  out->draw_grasps = draw.value();
   auto report = ParseChoice<bool, 2>(fields.values, "mean_stiffness", false, {"true", "false"},
                                      {true, false});
   if (!report.ok()) return report.error();
-  plan.mean_stiffness = report.value();
-  if (plan.mean_stiffness && !models.stiffness) {
+  out->plan.mean_stiffness = report.value();
+  if (out->plan.mean_stiffness && !models.stiffness) {
     return MakeError(ErrorCode::kInvalidArgument,
                      "mean_stiffness needs a stiffness model and none is loaded", "mean_stiffness");
   }
+  return std::nullopt;
+}
 
+// The depth, its camera and the segmask part.
+Stage DecodeGraspUpload(const RequestFields& fields, const config::ServiceConfig& config,
+                        GraspRequest* out) {
   auto upload = DecodeUpload(fields, config);
   if (!upload.ok()) return upload.error();
-  out.upload = std::move(upload).value();
+  out->upload = std::move(upload).value();
   if (fields.segmask_bytes) {
     auto mask = io::DecodeMask(*fields.segmask_bytes, config.max_image_pixels);
     if (!mask.ok()) return mask.error();
-    plan.region_of_interest = std::move(mask).value();  // its size is the engine's to check
+    out->plan.region_of_interest = std::move(mask).value();  // its size is the engine's to check
   }
+  return std::nullopt;
+}
 
+// "target": an instance id from 1.
+Stage ParseTargetId(const RequestFields& fields, engine::PlanOptions* plan) {
+  const auto target = fields.values.find("target");
+  if (target == fields.values.end()) return std::nullopt;
+  auto id = ParseNumber("target", target->second, 1, 65535);
+  if (!id.ok()) return id.error();
+  if (id.value() != std::floor(id.value())) {
+    return MakeError(
+        ErrorCode::kInvalidArgument,
+        "target must be an instance id (an integer from 1), got '" + target->second + "'",
+        "target");
+  }
+  plan->target_id = static_cast<int>(id.value());
+  return std::nullopt;
+}
+
+// Instances: instances, segmentation, target or target_px, and the labels part.
+Stage ParseInstanceFields(const RequestFields& fields, const config::ServiceConfig& config,
+                          GraspRequest* out) {
+  engine::PlanOptions& plan = out->plan;
   auto instances =
       ParseChoice<bool, 2>(fields.values, "instances", false, {"true", "false"}, {true, false});
   if (!instances.ok()) return instances.error();
@@ -381,28 +410,18 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
       fields.values, "segmentation", std::nullopt, kMethodNames, kMethods);
   if (!method.ok()) return method.error();
   plan.instances.method = method.value();
-  if (const auto target = fields.values.find("target"); target != fields.values.end()) {
-    auto id = ParseNumber("target", target->second, 1, 65535);
-    if (!id.ok()) return id.error();
-    if (id.value() != std::floor(id.value())) {
-      return MakeError(
-          ErrorCode::kInvalidArgument,
-          "target must be an instance id (an integer from 1), got '" + target->second + "'",
-          "target");
-    }
-    plan.target_id = static_cast<int>(id.value());
-  }
+  if (auto error = ParseTargetId(fields, &plan)) return error;
   if (const auto px = fields.values.find("target_px"); px != fields.values.end()) {
     if (plan.target_id > 0) {
       return MakeError(ErrorCode::kInvalidArgument, "give either target or target_px, not both",
                        "target_px");
     }
-    auto point = ParseTargetPixel(px->second, out.upload.depth.depth_m.size());
+    auto point = ParseTargetPixel(px->second, out->upload.depth.depth_m.size());
     if (!point.ok()) return point.error();
     plan.target_px = point.value();
   }
   if (fields.labels_bytes) {
-    auto labels = DecodeLabels(*fields.labels_bytes, config, out.upload.depth);
+    auto labels = DecodeLabels(*fields.labels_bytes, config, out->upload.depth);
     if (!labels.ok()) return labels.error();
     plan.instances.labels = std::move(labels).value();
     if (plan.instances.method) {
@@ -413,6 +432,26 @@ core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
     }
     plan.report_instances = true;  // a labels part asks for each grasp's instance
   }
+  return std::nullopt;
+}
+
+}  // namespace
+
+core::Result<GraspRequest> ParseGraspRequest(const http::Request& request,
+                                             const config::ServiceConfig& config,
+                                             const engine::Models& models) {
+  auto collected = CollectFields(request);
+  if (!collected.ok()) return collected.error();
+  const RequestFields& fields = collected.value();
+  GraspRequest out;
+  out.plan.gripper = config.default_gripper;
+  out.plan.fge = config.fge;
+  out.plan.min_depth_m = config.min_depth_m;
+  if (auto error = ParseNumericFields(fields, &out)) return *error;
+  if (auto error = ParseStrategyFields(fields, models, &out.plan)) return *error;
+  if (auto error = ParseAnswerFields(request, fields, models, &out)) return *error;
+  if (auto error = DecodeGraspUpload(fields, config, &out)) return *error;
+  if (auto error = ParseInstanceFields(fields, config, &out)) return *error;
   return out;
 }
 
