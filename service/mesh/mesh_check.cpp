@@ -94,17 +94,13 @@ SelfIntersections FindSelfIntersections(const TriangleMesh& mesh) {
   return out;
 }
 
-}  // namespace
-
-MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) {
-  MeshReport r;
+/// Indices first: nothing else is meaningful without them. Returns false, with the problem
+/// noted, when an index is out of range or there are no faces.
+bool CheckIndices(const TriangleMesh& mesh, MeshReport& r) {
   const int nv = static_cast<int>(mesh.vertices.size());
-  const std::size_t nf = mesh.faces.size();
-
-  // Indices first: nothing else is meaningful without them.
   int bad_index_faces = 0;
   std::string first_bad;
-  for (std::size_t f = 0; f < nf; ++f) {
+  for (std::size_t f = 0; f < mesh.faces.size(); ++f) {
     for (const int v : mesh.faces[f]) {
       if (v < 0 || v >= nv) {
         if (bad_index_faces++ == 0) first_bad = "face " + std::to_string(f);
@@ -115,31 +111,39 @@ MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) 
   r.indices_valid = bad_index_faces == 0 && mesh.vertices.size() <= 0x7fffffffu;
   if (!r.indices_valid) {
     AddProblem(r, bad_index_faces, "faces with a vertex index out of range", first_bad);
-    return r;
+    return false;
   }
-  if (nf == 0) {
+  if (mesh.faces.empty()) {
     r.problems.push_back("the mesh has no faces");
-    return r;
+    return false;
   }
+  return true;
+}
 
+void CountNonFiniteVertices(const TriangleMesh& mesh, MeshReport& r) {
   std::string example;
-  for (int v = 0; v < nv; ++v) {
+  for (int v = 0; v < static_cast<int>(mesh.vertices.size()); ++v) {
     const auto& p = mesh.vertices[static_cast<std::size_t>(v)];
     if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) {
       if (r.num_nonfinite_vertices++ == 0) example = "vertex " + std::to_string(v);
     }
   }
   AddProblem(r, r.num_nonfinite_vertices, "vertices with a non-finite coordinate", example);
+}
 
-  // Half-edges of non-degenerate faces, grouped by undirected edge.
+bool IsDegenerate(const std::array<int, 3>& t) {
+  return t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
+}
+
+/// Half-edges of non-degenerate faces, grouped by undirected edge (sorted by key, then face);
+/// counts the degenerate faces.
+std::vector<HalfEdge> SortedHalfEdges(const TriangleMesh& mesh, MeshReport& r) {
   std::vector<HalfEdge> half;
-  half.reserve(3 * nf);
-  std::vector<char> used(static_cast<std::size_t>(nv), 0);
-  example.clear();
-  for (std::size_t f = 0; f < nf; ++f) {
+  half.reserve(3 * mesh.faces.size());
+  std::string example;
+  for (std::size_t f = 0; f < mesh.faces.size(); ++f) {
     const auto& t = mesh.faces[f];
-    for (const int v : t) used[static_cast<std::size_t>(v)] = 1;
-    if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) {
+    if (IsDegenerate(t)) {
       if (r.num_degenerate_faces++ == 0) example = "face " + std::to_string(f);
       continue;
     }
@@ -152,10 +156,14 @@ MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) 
   std::sort(half.begin(), half.end(), [](const HalfEdge& x, const HalfEdge& y) {
     return x.key != y.key ? x.key < y.key : x.face < y.face;
   });
+  return half;
+}
 
-  // Corners (face, local vertex) of the same vertex are joined across 2-face edges: each
-  // vertex must end up with one group (one fan).
-  UnionFind corners(3 * nf);
+/// Counts boundary, non-manifold and misoriented edges among the sorted half-edges, and joins
+/// the corners (face, local vertex) of the same vertex across 2-face edges: each vertex must end
+/// up with one group (one fan). Returns the number of edges.
+int CheckEdges(const TriangleMesh& mesh, const std::vector<HalfEdge>& half, UnionFind& corners,
+               MeshReport& r) {
   auto corner = [&](int face, int v) {
     const auto& t = mesh.faces[static_cast<std::size_t>(face)];
     const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
@@ -195,13 +203,17 @@ MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) 
              ex_nonmanifold);
   AddProblem(r, r.num_misoriented_edges,
              "edges not traversed once in each direction: inconsistent orientation", ex_orient);
+  return num_edges;
+}
 
-  // Fans per vertex.
-  std::vector<std::size_t> fan_root(static_cast<std::size_t>(nv), SIZE_MAX);
-  std::vector<char> extra_fan(static_cast<std::size_t>(nv), 0);
-  for (std::size_t f = 0; f < nf; ++f) {
+/// Fans per vertex: counts the vertices whose corners fall into more than one group.
+void CheckVertexFans(const TriangleMesh& mesh, UnionFind& corners, MeshReport& r) {
+  const std::size_t nv = mesh.vertices.size();
+  std::vector<std::size_t> fan_root(nv, SIZE_MAX);
+  std::vector<char> extra_fan(nv, 0);
+  for (std::size_t f = 0; f < mesh.faces.size(); ++f) {
     const auto& t = mesh.faces[f];
-    if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;
+    if (IsDegenerate(t)) continue;
     for (std::size_t k = 0; k < 3; ++k) {
       const auto v = static_cast<std::size_t>(t[k]);
       const std::size_t root = corners.Find(3 * f + k);
@@ -212,23 +224,31 @@ MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) 
       }
     }
   }
-  example.clear();
-  for (int v = 0; v < nv; ++v) {
+  std::string example;
+  for (int v = 0; v < static_cast<int>(nv); ++v) {
     if (extra_fan[static_cast<std::size_t>(v)] && r.num_nonmanifold_vertices++ == 0) {
       example = "vertex " + std::to_string(v);
     }
   }
   AddProblem(r, r.num_nonmanifold_vertices,
              "vertices whose faces form several fans: not 2-manifold", example);
+}
 
-  // Pieces: vertices joined by faces.
+/// Pieces: vertices joined by faces. Counts the unreferenced vertices and the pieces; returns
+/// the number of referenced vertices.
+int CountPieces(const TriangleMesh& mesh, MeshReport& r) {
+  const int nv = static_cast<int>(mesh.vertices.size());
+  std::vector<char> used(static_cast<std::size_t>(nv), 0);
+  for (const auto& t : mesh.faces) {
+    for (const int v : t) used[static_cast<std::size_t>(v)] = 1;
+  }
   UnionFind pieces(static_cast<std::size_t>(nv));
   for (const auto& t : mesh.faces) {
     pieces.Union(static_cast<std::size_t>(t[0]), static_cast<std::size_t>(t[1]));
     pieces.Union(static_cast<std::size_t>(t[1]), static_cast<std::size_t>(t[2]));
   }
   int referenced = 0;
-  example.clear();
+  std::string example;
   for (int v = 0; v < nv; ++v) {
     const auto sv = static_cast<std::size_t>(v);
     if (!used[sv]) {
@@ -242,8 +262,11 @@ MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) 
   if (r.num_components > 1) {
     r.problems.push_back(std::to_string(r.num_components) + " separate pieces: not connected");
   }
+  return referenced;
+}
 
-  // Signed volume, relative to the first vertex for precision.
+/// Signed volume, relative to the first vertex for precision.
+double SignedVolume(const TriangleMesh& mesh) {
   const auto& o = mesh.vertices[static_cast<std::size_t>(mesh.faces[0][0])];
   double six_volume = 0.0;
   for (const auto& t : mesh.faces) {
@@ -256,7 +279,43 @@ MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) 
     six_volume += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
                   a[2] * (b[0] * c[1] - b[1] * c[0]);
   }
-  r.volume = six_volume / 6.0;
+  return six_volume / 6.0;
+}
+
+/// Runs FindSelfIntersections and notes what it found, or why it could not run.
+void CheckSelfIntersections(const TriangleMesh& mesh, MeshReport& r) {
+  const SelfIntersections si = FindSelfIntersections(mesh);
+  if (!si.ran) {
+    r.problems.push_back("the self-intersection test could not run: " + si.failure);
+    return;
+  }
+  r.self_intersections_checked = true;
+  r.num_self_intersecting_pairs = static_cast<int>(si.pairs.size());
+  r.num_collinear_faces = static_cast<int>(si.collinear_faces.size());
+  r.self_intersecting_pairs = si.pairs;
+  r.self_intersection_free = si.pairs.empty() && si.collinear_faces.empty();
+  AddProblem(r, r.num_self_intersecting_pairs,
+             "pairs of faces that cut through each other: self-intersecting",
+             si.pairs.empty() ? std::string()
+                              : "faces " + std::to_string(si.pairs[0][0]) + " and " +
+                                    std::to_string(si.pairs[0][1]));
+  AddProblem(
+      r, r.num_collinear_faces, "faces with three collinear vertices: zero area",
+      si.collinear_faces.empty() ? std::string() : "face " + std::to_string(si.collinear_faces[0]));
+}
+
+}  // namespace
+
+MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) {
+  MeshReport r;
+  if (!CheckIndices(mesh, r)) return r;
+  CountNonFiniteVertices(mesh, r);
+  const std::vector<HalfEdge> half = SortedHalfEdges(mesh, r);
+  UnionFind corners(3 * mesh.faces.size());
+  const int num_edges = CheckEdges(mesh, half, corners, r);
+  CheckVertexFans(mesh, corners, r);
+  const int referenced = CountPieces(mesh, r);
+  r.volume = SignedVolume(mesh);
 
   r.closed = r.num_boundary_edges == 0;
   r.edge_manifold = r.num_boundary_edges == 0 && r.num_nonmanifold_edges == 0;
@@ -268,31 +327,14 @@ MeshReport CheckMesh(const TriangleMesh& mesh, const MeshCheckOptions& options) 
     r.problems.push_back("signed volume " + std::to_string(r.volume) +
                          " is not positive: faces point inward or the mesh is flat");
   }
-  r.euler_characteristic = referenced - num_edges + static_cast<int>(nf);
+  r.euler_characteristic = referenced - num_edges + static_cast<int>(mesh.faces.size());
 
   // Self-intersections need a halfedge mesh: only when the combinatorial checks allow one.
   // Open meshes (boundary edges) and several pieces are fine for the test itself.
   if (options.self_intersections && r.num_nonfinite_vertices == 0 && r.num_degenerate_faces == 0 &&
       r.num_nonmanifold_edges == 0 && r.num_nonmanifold_vertices == 0 &&
       r.num_misoriented_edges == 0) {
-    const SelfIntersections si = FindSelfIntersections(mesh);
-    if (!si.ran) {
-      r.problems.push_back("the self-intersection test could not run: " + si.failure);
-    } else {
-      r.self_intersections_checked = true;
-      r.num_self_intersecting_pairs = static_cast<int>(si.pairs.size());
-      r.num_collinear_faces = static_cast<int>(si.collinear_faces.size());
-      r.self_intersecting_pairs = si.pairs;
-      r.self_intersection_free = si.pairs.empty() && si.collinear_faces.empty();
-      AddProblem(r, r.num_self_intersecting_pairs,
-                 "pairs of faces that cut through each other: self-intersecting",
-                 si.pairs.empty() ? std::string()
-                                  : "faces " + std::to_string(si.pairs[0][0]) + " and " +
-                                        std::to_string(si.pairs[0][1]));
-      AddProblem(r, r.num_collinear_faces, "faces with three collinear vertices: zero area",
-                 si.collinear_faces.empty() ? std::string()
-                                            : "face " + std::to_string(si.collinear_faces[0]));
-    }
+    CheckSelfIntersections(mesh, r);
   }
   return r;
 }

@@ -94,6 +94,32 @@ double SixVolume(const Vec3& o, const Vec3& p, const Vec3& q, const Vec3& s) {
          a[2] * (b[0] * c[1] - b[1] * c[0]);
 }
 
+/// The corner (0..2) of collinear face `t` that lies between the other two, by the coordinate
+/// along which the three spread most (distinct points on a line are strictly ordered along it);
+/// 3 when none does.
+std::size_t MiddleCorner(const TriangleMesh& m, const Face& t) {
+  std::size_t axis = 0;
+  double spread = -1.0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double lo =
+        std::min({m.vertices[Z(t[0])][k], m.vertices[Z(t[1])][k], m.vertices[Z(t[2])][k]});
+    const double hi =
+        std::max({m.vertices[Z(t[0])][k], m.vertices[Z(t[1])][k], m.vertices[Z(t[2])][k]});
+    if (hi - lo > spread) {
+      spread = hi - lo;
+      axis = k;
+    }
+  }
+  std::size_t mid = 3;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double x = m.vertices[Z(t[k])][axis];
+    const double y = m.vertices[Z(t[(k + 1) % 3])][axis];
+    const double z = m.vertices[Z(t[(k + 2) % 3])][axis];
+    if ((y < x && x < z) || (z < x && x < y)) mid = k;
+  }
+  return mid;
+}
+
 /// Removes faces with three distinct collinear vertices (zero area; exact predicate) from a
 /// closed, consistently oriented 2-manifold mesh. Such a face (a, m, c), m between a and c, is
 /// flipped with its neighbour (a, c, d) across the long edge into (a, m, d) and (m, c, d): the
@@ -140,27 +166,7 @@ int FlipCollinearFaces(TriangleMesh& m, int* removed, int* first_left) {
     queue.pop_front();
     const Face t = m.faces[Z(f)];
     if (!collinear(t)) continue;
-    // The middle vertex, by the coordinate along which the three spread most (distinct points
-    // on a line are strictly ordered along it).
-    std::size_t axis = 0;
-    double spread = -1.0;
-    for (std::size_t k = 0; k < 3; ++k) {
-      const double lo =
-          std::min({m.vertices[Z(t[0])][k], m.vertices[Z(t[1])][k], m.vertices[Z(t[2])][k]});
-      const double hi =
-          std::max({m.vertices[Z(t[0])][k], m.vertices[Z(t[1])][k], m.vertices[Z(t[2])][k]});
-      if (hi - lo > spread) {
-        spread = hi - lo;
-        axis = k;
-      }
-    }
-    std::size_t mid = 3;
-    for (std::size_t k = 0; k < 3; ++k) {
-      const double x = m.vertices[Z(t[k])][axis];
-      const double y = m.vertices[Z(t[(k + 1) % 3])][axis];
-      const double z = m.vertices[Z(t[(k + 2) % 3])][axis];
-      if ((y < x && x < z) || (z < x && x < y)) mid = k;
-    }
+    const std::size_t mid = MiddleCorner(m, t);
     if (mid == 3) continue;
     const int a = t[(mid + 2) % 3], mv = t[mid], c = t[(mid + 1) % 3];
     const auto it = edge_face.find(DirectedKey(a, c));
@@ -193,30 +199,24 @@ core::Error CollinearRefusal(int left, const Vec3& first_file_point) {
                 Point(first_file_point));
 }
 
-/// The input after the combinatorial repairs: one closed, 2-manifold, outward piece.
-struct Cleaned {
-  TriangleMesh mesh;        ///< coordinates at the pass's scale
-  std::vector<int> source;  ///< input vertex of each vertex (messages quote file coordinates)
-  RepairCounts counts;
-};
-
-/// Welds, drops degenerate and duplicate faces and unused vertices, refuses holes and
-/// non-manifold edges or vertices, orients each piece consistently and outwards, and keeps the
-/// main piece. `scale` multiplies the input coordinates first. Indices and finiteness are
-/// checked by the caller.
-core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
-                                    const PrepareOptions& options) {
-  const std::size_t nv = in.vertices.size();
-  const std::size_t nf = in.faces.size();
-  RepairCounts counts;
-  auto file_point = [&](int input_vertex) { return Point(in.vertices[Z(input_vertex)]); };
-
-  std::vector<Vec3> pos(nv);
-  for (std::size_t i = 0; i < nv; ++i) {
+/// The input coordinates times `scale`.
+std::vector<Vec3> ScaledPositions(const TriangleMesh& in, double scale) {
+  std::vector<Vec3> pos(in.vertices.size());
+  for (std::size_t i = 0; i < in.vertices.size(); ++i) {
     for (std::size_t k = 0; k < 3; ++k) pos[i][k] = in.vertices[i][k] * scale;
   }
+  return pos;
+}
 
-  // Weld used vertices with equal coordinates (0 and -0 are equal) onto the lowest index.
+/// The used input vertices, each welded onto the first of those at its position.
+struct Welding {
+  std::vector<int> rep;       ///< vertex each input vertex is welded onto; -1 when unused
+  std::size_t positions = 0;  ///< distinct positions among the used vertices
+};
+
+/// Welds used vertices with equal coordinates (0 and -0 are equal) onto the lowest index.
+Welding WeldVertices(const TriangleMesh& in, const std::vector<Vec3>& pos, RepairCounts& counts) {
+  const std::size_t nv = in.vertices.size();
   std::vector<char> used(nv, 0);
   for (const Face& t : in.faces) {
     for (const int v : t) used[Z(v)] = 1;
@@ -231,28 +231,34 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
     }
   }
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return pos[Z(a)] < pos[Z(b)]; });
-  std::vector<int> rep(nv, -1);
-  std::size_t positions = 0;
+  Welding w;
+  w.rep.assign(nv, -1);
   for (std::size_t i = 0; i < order.size();) {
     std::size_t j = i;
-    while (j < order.size() && pos[Z(order[j])] == pos[Z(order[i])]) rep[Z(order[j++])] = order[i];
-    ++positions;
+    while (j < order.size() && pos[Z(order[j])] == pos[Z(order[i])]) {
+      w.rep[Z(order[j++])] = order[i];
+    }
+    ++w.positions;
     i = j;
   }
-  counts.welded_vertices = static_cast<int>(order.size() - positions);
+  counts.welded_vertices = static_cast<int>(order.size() - w.positions);
+  return w;
+}
 
-  // Faces on the welded vertices: drop those that name a vertex twice, then settle faces on the
-  // same three vertices. Same orientation: a duplicate, one is kept. Opposite orientations: a
-  // zero-thickness wall (two closed cells sharing a side, or a sheet modelled with both sides);
-  // such a pair adds nothing to the volume and keeps every edge's face count even, so it is
-  // dropped, pair by pair.
-  struct Keyed {
-    Face sorted;
-    int face;
-    bool even;  ///< same cyclic order as `sorted`
-  };
-  std::vector<Face> welded(nf);
-  std::vector<Keyed> keyed;
+/// A face on the welded vertices, keyed by its sorted vertex triple.
+struct KeyedFace {
+  Face sorted;
+  int face;
+  bool even;  ///< same cyclic order as `sorted`
+};
+
+/// The input faces on the welded vertices (`welded`, one per input face) and, sorted by their
+/// vertex triple and then by face, those that name three distinct vertices.
+std::vector<KeyedFace> KeyWeldedFaces(const TriangleMesh& in, const std::vector<int>& rep,
+                                      std::vector<Face>& welded, RepairCounts& counts) {
+  const std::size_t nf = in.faces.size();
+  welded.assign(nf, Face{});
+  std::vector<KeyedFace> keyed;
   keyed.reserve(nf);
   for (std::size_t f = 0; f < nf; ++f) {
     const Face& t0 = in.faces[f];
@@ -267,14 +273,21 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
     const std::size_t first = t[0] == s[0] ? 0 : (t[1] == s[0] ? 1 : 2);
     keyed.push_back({s, static_cast<int>(f), t[(first + 1) % 3] == s[1]});
   }
-  std::sort(keyed.begin(), keyed.end(), [](const Keyed& x, const Keyed& y) {
+  std::sort(keyed.begin(), keyed.end(), [](const KeyedFace& x, const KeyedFace& y) {
     if (x.sorted[0] != y.sorted[0]) return x.sorted[0] < y.sorted[0];
     if (x.sorted[1] != y.sorted[1]) return x.sorted[1] < y.sorted[1];
     if (x.sorted[2] != y.sorted[2]) return x.sorted[2] < y.sorted[2];
     return x.face < y.face;
   });
-  std::vector<char> keep(nf, 0);
-  std::vector<std::pair<std::size_t, std::size_t>> balanced;  // groups as many one way as the other
+  return keyed;
+}
+
+/// Keeps one face of each group of `keyed` on the same three vertices that runs more often one
+/// way than the other, dropping the rest; returns the groups (ranges of `keyed`) that run as
+/// often one way as the other, left for KeepOneSideOfTwoSidedFaces.
+std::vector<std::pair<std::size_t, std::size_t>> KeepOneFacePerUnbalancedGroup(
+    const std::vector<KeyedFace>& keyed, std::vector<char>& keep, RepairCounts& counts) {
+  std::vector<std::pair<std::size_t, std::size_t>> balanced;
   for (std::size_t i = 0; i < keyed.size();) {
     std::size_t j = i;
     int even = 0, odd = 0;
@@ -297,94 +310,128 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
     }
     i = j;
   }
-  // A balanced group whose three edges each have an odd number of other faces is one side of the
-  // solid with a reversed copy (a face exported two-sided): dropping both would open a hole, so
-  // one is kept (the orientation step below turns it the right way).
-  if (!balanced.empty()) {
-    std::unordered_map<std::uint64_t, int> edge_faces;
-    edge_faces.reserve(3 * nf);
-    for (std::size_t f = 0; f < nf; ++f) {
-      if (!keep[f]) continue;
-      const Face& t = welded[f];
-      for (std::size_t k = 0; k < 3; ++k) ++edge_faces[EdgeKey(t[k], t[(k + 1) % 3])];
-    }
-    auto odd_edge = [&](int a, int b) {
-      const auto it = edge_faces.find(EdgeKey(a, b));
-      return it != edge_faces.end() && it->second % 2 == 1;
-    };
-    for (const auto& [i, j] : balanced) {
-      const Face& s = keyed[i].sorted;
-      const int pairs = static_cast<int>(j - i) / 2;
-      if (odd_edge(s[0], s[1]) && odd_edge(s[1], s[2]) && odd_edge(s[0], s[2])) {
-        keep[Z(keyed[i].face)] = 1;
-        counts.duplicate_faces += 2 * pairs - 1;
-        for (std::size_t k = 0; k < 3; ++k) ++edge_faces[EdgeKey(s[k], s[(k + 1) % 3])];
-      } else {
-        counts.opposite_face_pairs += pairs;
-      }
+  return balanced;
+}
+
+/// A balanced group whose three edges each have an odd number of other faces is one side of the
+/// solid with a reversed copy (a face exported two-sided): dropping both would open a hole, so
+/// one is kept (the orientation step turns it the right way). Other balanced groups are dropped.
+void KeepOneSideOfTwoSidedFaces(const std::vector<KeyedFace>& keyed,
+                                const std::vector<std::pair<std::size_t, std::size_t>>& balanced,
+                                const std::vector<Face>& welded, std::vector<char>& keep,
+                                RepairCounts& counts) {
+  if (balanced.empty()) return;
+  std::unordered_map<std::uint64_t, int> edge_faces;
+  edge_faces.reserve(3 * welded.size());
+  for (std::size_t f = 0; f < welded.size(); ++f) {
+    if (!keep[f]) continue;
+    const Face& t = welded[f];
+    for (std::size_t k = 0; k < 3; ++k) ++edge_faces[EdgeKey(t[k], t[(k + 1) % 3])];
+  }
+  auto odd_edge = [&](int a, int b) {
+    const auto it = edge_faces.find(EdgeKey(a, b));
+    return it != edge_faces.end() && it->second % 2 == 1;
+  };
+  for (const auto& [i, j] : balanced) {
+    const Face& s = keyed[i].sorted;
+    const int pairs = static_cast<int>(j - i) / 2;
+    if (odd_edge(s[0], s[1]) && odd_edge(s[1], s[2]) && odd_edge(s[0], s[2])) {
+      keep[Z(keyed[i].face)] = 1;
+      counts.duplicate_faces += 2 * pairs - 1;
+      for (std::size_t k = 0; k < 3; ++k) ++edge_faces[EdgeKey(s[k], s[(k + 1) % 3])];
+    } else {
+      counts.opposite_face_pairs += pairs;
     }
   }
+}
 
-  Cleaned out;
+/// The faces on the welded vertices, without those that name a vertex twice, and with faces on
+/// the same three vertices settled. Same orientation: a duplicate, one is kept. Opposite
+/// orientations: a zero-thickness wall (two closed cells sharing a side, or a sheet modelled with
+/// both sides); such a pair adds nothing to the volume and keeps every edge's face count even, so
+/// it is dropped, pair by pair.
+std::vector<Face> SettleCoincidentFaces(const TriangleMesh& in, const std::vector<int>& rep,
+                                        RepairCounts& counts) {
+  std::vector<Face> welded;
+  const std::vector<KeyedFace> keyed = KeyWeldedFaces(in, rep, welded, counts);
+  std::vector<char> keep(welded.size(), 0);
+  const auto balanced = KeepOneFacePerUnbalancedGroup(keyed, keep, counts);
+  KeepOneSideOfTwoSidedFaces(keyed, balanced, welded, keep, counts);
   std::vector<Face> faces;
-  for (std::size_t f = 0; f < nf; ++f) {
+  for (std::size_t f = 0; f < welded.size(); ++f) {
     if (keep[f]) faces.push_back(welded[f]);
   }
-  if (faces.empty()) {
-    std::vector<std::string> dropped;
-    if (counts.degenerate_faces > 0) {
-      dropped.push_back(Count(counts.degenerate_faces, "face that names a vertex twice",
-                              "faces that name a vertex twice"));
-    }
-    if (counts.duplicate_faces > 0) {
-      dropped.push_back(Count(counts.duplicate_faces, "duplicate face", "duplicate faces"));
-    }
-    if (counts.opposite_face_pairs > 0) {
-      dropped.push_back(Count(counts.opposite_face_pairs, "pair of coincident faces facing",
-                              "pairs of coincident faces facing") +
-                        " opposite ways");
-    }
-    return Refuse("no faces are left after dropping " + JoinAnd(dropped) +
-                  ": the mesh encloses no volume (a flat sheet modelled with both sides?)");
-  }
+  return faces;
+}
 
-  // Keep only used vertices, in input order.
-  std::vector<int> new_id(nv, -1);
+core::Error NoFacesLeftRefusal(const RepairCounts& counts) {
+  std::vector<std::string> dropped;
+  if (counts.degenerate_faces > 0) {
+    dropped.push_back(Count(counts.degenerate_faces, "face that names a vertex twice",
+                            "faces that name a vertex twice"));
+  }
+  if (counts.duplicate_faces > 0) {
+    dropped.push_back(Count(counts.duplicate_faces, "duplicate face", "duplicate faces"));
+  }
+  if (counts.opposite_face_pairs > 0) {
+    dropped.push_back(Count(counts.opposite_face_pairs, "pair of coincident faces facing",
+                            "pairs of coincident faces facing") +
+                      " opposite ways");
+  }
+  return Refuse("no faces are left after dropping " + JoinAnd(dropped) +
+                ": the mesh encloses no volume (a flat sheet modelled with both sides?)");
+}
+
+/// Renumbers `faces` onto the vertices they use, in the order of their old indices (below
+/// `num_vertices`); returns the old index of each new vertex.
+std::vector<int> CompactVertices(std::vector<Face>& faces, std::size_t num_vertices) {
+  std::vector<int> new_id(num_vertices, -1);
   for (const Face& t : faces) {
     for (const int v : t) new_id[Z(v)] = 0;
   }
-  for (std::size_t i = 0; i < nv; ++i) {
+  std::vector<int> old_id;
+  for (std::size_t i = 0; i < num_vertices; ++i) {
     if (new_id[i] == 0) {
-      new_id[i] = static_cast<int>(out.source.size());
-      out.source.push_back(static_cast<int>(i));
+      new_id[i] = static_cast<int>(old_id.size());
+      old_id.push_back(static_cast<int>(i));
     }
   }
-  counts.unused_vertices += static_cast<int>(positions - out.source.size());
   for (Face& t : faces) {
     for (int& v : t) v = new_id[Z(v)];
   }
-  const auto at = [&](int v) { return file_point(out.source[Z(v)]); };
+  return old_id;
+}
 
-  // Small holes: closed with triangles between their boundary vertices, or left for the refusal
-  // below, which then says why they were not filled.
-  std::string holes_not_filled;
-  if (options.fill_hole_max_edges > 0) {
-    std::vector<Vec3> kept_pos(out.source.size());
-    for (std::size_t v = 0; v < out.source.size(); ++v) kept_pos[v] = pos[Z(out.source[v])];
-    const HoleFillResult filled = FillHoles(
-        kept_pos, faces, {options.fill_hole_max_edges, options.fill_hole_max_area_fraction});
-    counts.filled_holes = filled.holes;
-    counts.filled_hole_edges = filled.boundary_edges;
-    counts.hole_faces_added = filled.new_faces;
-    counts.filled_area_fraction = filled.area_fraction;
-    holes_not_filled = filled.not_filled;
-  }
+/// A vertex of the compacted mesh quoted at its file coordinates, for messages.
+struct FilePoints {
+  const TriangleMesh& in;
+  const std::vector<int>& source;  ///< input vertex of each vertex
+  std::string operator()(int v) const { return Point(in.vertices[Z(source[Z(v)])]); }
+};
 
-  // Edges: each must have exactly two faces.
-  const int n = static_cast<int>(faces.size());
+/// Small holes: closed with triangles between their boundary vertices, or left for the refusal
+/// of open meshes, which then says why they were not filled. Returns that reason (empty when
+/// every hole was filled, there was none, or filling is off).
+std::string FillSmallHoles(const std::vector<Vec3>& pos, const std::vector<int>& source,
+                           const PrepareOptions& options, std::vector<Face>& faces,
+                           RepairCounts& counts) {
+  if (options.fill_hole_max_edges <= 0) return "";
+  std::vector<Vec3> kept_pos(source.size());
+  for (std::size_t v = 0; v < source.size(); ++v) kept_pos[v] = pos[Z(source[v])];
+  const HoleFillResult filled = FillHoles(
+      kept_pos, faces, {options.fill_hole_max_edges, options.fill_hole_max_area_fraction});
+  counts.filled_holes = filled.holes;
+  counts.filled_hole_edges = filled.boundary_edges;
+  counts.hole_faces_added = filled.new_faces;
+  counts.filled_area_fraction = filled.area_fraction;
+  return filled.not_filled;
+}
+
+/// The faces' directed edges, sorted by undirected edge and then by face.
+std::vector<HalfEdge> SortedHalfEdges(const std::vector<Face>& faces) {
   std::vector<HalfEdge> half;
   half.reserve(3 * faces.size());
-  for (int f = 0; f < n; ++f) {
+  for (int f = 0; f < static_cast<int>(faces.size()); ++f) {
     const Face& t = faces[Z(f)];
     for (std::size_t k = 0; k < 3; ++k) {
       const int a = t[k], b = t[(k + 1) % 3];
@@ -394,13 +441,49 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
   std::sort(half.begin(), half.end(), [](const HalfEdge& x, const HalfEdge& y) {
     return x.key != y.key ? x.key < y.key : x.face < y.face;
   });
-  struct Neighbour {
-    int face = -1;
-    bool same_direction = false;  ///< both faces run along the shared edge the same way
-  };
-  std::vector<Neighbour> adjacent(3 * faces.size());
+  return half;
+}
+
+core::Error OpenOrNonManifoldRefusal(int boundary, const std::string& boundary_example,
+                                     const std::string& holes_not_filled, int nonmanifold,
+                                     const std::string& nonmanifold_example) {
+  std::vector<std::string> parts;
+  if (boundary > 0) {
+    parts.push_back(
+        "the mesh is not closed: " + Count(boundary, "boundary edge", "boundary edges") +
+        " (edges with a single face, or an odd number: holes in the surface), "
+        "first " +
+        boundary_example + (holes_not_filled.empty() ? "" : "; not filled: " + holes_not_filled));
+  }
+  if (nonmanifold > 0) {
+    parts.push_back("the mesh is not 2-manifold: " + Count(nonmanifold, "edge is", "edges are") +
+                    " shared by more than two faces, first " + nonmanifold_example);
+  }
+  std::string message = parts[0];
+  for (std::size_t i = 1; i < parts.size(); ++i) message += "; " + parts[i];
+  return Refuse(message);
+}
+
+/// A face's neighbour across one of its edges.
+struct Neighbour {
+  int face = -1;
+  bool same_direction = false;  ///< both faces run along the shared edge the same way
+};
+
+/// How the faces of a closed, edge-manifold mesh join across their edges.
+struct EdgeAdjacency {
+  std::vector<Neighbour> adjacent;  ///< three per face: face f's at 3 f .. 3 f + 2
+  UnionFind corners;                ///< corners (3 face + k) joined across the edges they share
+};
+
+/// Edges: each must have exactly two faces; refuses boundary and non-manifold edges, quoting why
+/// holes were not filled.
+core::Result<EdgeAdjacency> JoinFacesAcrossEdges(const std::vector<Face>& faces,
+                                                 const FilePoints& at,
+                                                 const std::string& holes_not_filled) {
+  const std::vector<HalfEdge> half = SortedHalfEdges(faces);
+  EdgeAdjacency joined{std::vector<Neighbour>(3 * faces.size()), UnionFind(3 * faces.size())};
   std::vector<int> num_adjacent(faces.size(), 0);
-  UnionFind corners(3 * faces.size());
   auto corner = [&](int face, int v) {
     const Face& t = faces[Z(face)];
     return Z(face) * 3 + (t[0] == v ? 0 : (t[1] == v ? 1 : 2));
@@ -417,39 +500,29 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
     if (count == 2) {
       const HalfEdge& e0 = half[i];
       const HalfEdge& e1 = half[i + 1];
-      corners.Union(corner(e0.face, e0.from), corner(e1.face, e0.from));
-      corners.Union(corner(e0.face, e0.to), corner(e1.face, e0.to));
+      joined.corners.Union(corner(e0.face, e0.from), corner(e1.face, e0.from));
+      joined.corners.Union(corner(e0.face, e0.to), corner(e1.face, e0.to));
       const bool same = e0.from == e1.from;
-      adjacent[Z(e0.face) * 3 + Z(num_adjacent[Z(e0.face)]++)] = {e1.face, same};
-      adjacent[Z(e1.face) * 3 + Z(num_adjacent[Z(e1.face)]++)] = {e0.face, same};
+      joined.adjacent[Z(e0.face) * 3 + Z(num_adjacent[Z(e0.face)]++)] = {e1.face, same};
+      joined.adjacent[Z(e1.face) * 3 + Z(num_adjacent[Z(e1.face)]++)] = {e0.face, same};
     }
     i = j;
   }
   if (boundary > 0 || nonmanifold > 0) {
-    std::vector<std::string> parts;
-    if (boundary > 0) {
-      parts.push_back(
-          "the mesh is not closed: " + Count(boundary, "boundary edge", "boundary edges") +
-          " (edges with a single face, or an odd number: holes in the surface), "
-          "first " +
-          boundary_example + (holes_not_filled.empty() ? "" : "; not filled: " + holes_not_filled));
-    }
-    if (nonmanifold > 0) {
-      parts.push_back("the mesh is not 2-manifold: " + Count(nonmanifold, "edge is", "edges are") +
-                      " shared by more than two faces, first " + nonmanifold_example);
-    }
-    std::string message = parts[0];
-    for (std::size_t i = 1; i < parts.size(); ++i) message += "; " + parts[i];
-    return Refuse(message);
+    return OpenOrNonManifoldRefusal(boundary, boundary_example, holes_not_filled, nonmanifold,
+                                    nonmanifold_example);
   }
+  return joined;
+}
 
-  // Vertex fans: the faces around each vertex must form one fan.
-  const std::size_t nvk = out.source.size();
-  std::vector<std::size_t> fan_root(nvk, SIZE_MAX);
+/// Vertex fans: the faces around each vertex must form one fan.
+std::optional<core::Error> CheckVertexFans(const std::vector<Face>& faces, std::size_t num_vertices,
+                                           UnionFind& corners, const FilePoints& at) {
+  std::vector<std::size_t> fan_root(num_vertices, SIZE_MAX);
   int pinched = 0;
-  std::vector<char> counted(nvk, 0);
+  std::vector<char> counted(num_vertices, 0);
   std::string pinched_example;
-  for (int f = 0; f < n; ++f) {
+  for (int f = 0; f < static_cast<int>(faces.size()); ++f) {
     for (std::size_t k = 0; k < 3; ++k) {
       const auto v = Z(faces[Z(f)][k]);
       const std::size_t root = corners.Find(Z(f) * 3 + k);
@@ -461,36 +534,46 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
       }
     }
   }
-  if (pinched > 0) {
-    return Refuse("the mesh is not 2-manifold: " + Count(pinched, "vertex joins", "vertices join") +
-                  " separate sheets of surface that touch only there, first at " + pinched_example);
-  }
+  if (pinched == 0) return std::nullopt;
+  return Refuse("the mesh is not 2-manifold: " + Count(pinched, "vertex joins", "vertices join") +
+                " separate sheets of surface that touch only there, first at " + pinched_example);
+}
 
-  // Orientation and pieces: walk across edges; a neighbour that runs along the shared edge the
-  // same way must be flipped relative to this face.
-  std::vector<int> piece(faces.size(), -1);
-  std::vector<char> flip(faces.size(), 0);
-  std::vector<int> seeds;
+/// The connected pieces of the surface, each oriented consistently.
+struct Pieces {
+  std::vector<int> piece;  ///< of each face
+  std::vector<char> flip;  ///< whether a face is reversed to agree with its piece
+  std::vector<int> seeds;  ///< the first face of each piece
+};
+
+/// Orientation and pieces: walk across edges; a neighbour that runs along the shared edge the
+/// same way must be flipped relative to this face.
+core::Result<Pieces> OrientPieces(const std::vector<Face>& faces,
+                                  const std::vector<Neighbour>& adjacent, const FilePoints& at) {
+  const int n = static_cast<int>(faces.size());
+  Pieces p;
+  p.piece.assign(faces.size(), -1);
+  p.flip.assign(faces.size(), 0);
   std::vector<int> queue;
   queue.reserve(faces.size());
   bool one_sided = false;
   int one_sided_face = -1;
   for (int seed = 0; seed < n; ++seed) {
-    if (piece[Z(seed)] != -1) continue;
-    const int id = static_cast<int>(seeds.size());
-    seeds.push_back(seed);
-    piece[Z(seed)] = id;
+    if (p.piece[Z(seed)] != -1) continue;
+    const int id = static_cast<int>(p.seeds.size());
+    p.seeds.push_back(seed);
+    p.piece[Z(seed)] = id;
     queue.assign(1, seed);
     for (std::size_t h = 0; h < queue.size(); ++h) {
       const int f = queue[h];
       for (std::size_t k = 0; k < 3; ++k) {
         const Neighbour& g = adjacent[Z(f) * 3 + k];
-        const char want = static_cast<char>(flip[Z(f)] ^ (g.same_direction ? 1 : 0));
-        if (piece[Z(g.face)] == -1) {
-          piece[Z(g.face)] = id;
-          flip[Z(g.face)] = want;
+        const char want = static_cast<char>(p.flip[Z(f)] ^ (g.same_direction ? 1 : 0));
+        if (p.piece[Z(g.face)] == -1) {
+          p.piece[Z(g.face)] = id;
+          p.flip[Z(g.face)] = want;
           queue.push_back(g.face);
-        } else if (flip[Z(g.face)] != want && !one_sided) {
+        } else if (p.flip[Z(g.face)] != want && !one_sided) {
           one_sided = true;
           one_sided_face = f;
         }
@@ -503,127 +586,146 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
         "which a closed surface can only be if it cuts through itself; first near " +
         at(faces[Z(one_sided_face)][0]));
   }
+  return p;
+}
 
-  // Each piece outwards (positive volume), measured from a vertex of its own.
-  const std::size_t num_pieces = seeds.size();
-  std::vector<double> six(num_pieces, 0.0);
+/// Each piece outwards (positive volume), measured from a vertex of its own: flips the pieces
+/// with a negative volume, then reverses every flipped face. Returns six times each piece's
+/// (positive) volume.
+std::vector<double> TurnPiecesOutwards(const std::vector<Vec3>& pos, const std::vector<int>& source,
+                                       std::vector<Face>& faces, Pieces& pieces) {
+  const int n = static_cast<int>(faces.size());
+  std::vector<double> six(pieces.seeds.size(), 0.0);
   for (int f = 0; f < n; ++f) {
     const Face& t = faces[Z(f)];
-    const Vec3& o = pos[Z(out.source[Z(faces[Z(seeds[Z(piece[Z(f)])])][0])])];
-    const double v = SixVolume(o, pos[Z(out.source[Z(t[0])])], pos[Z(out.source[Z(t[1])])],
-                               pos[Z(out.source[Z(t[2])])]);
-    six[Z(piece[Z(f)])] += flip[Z(f)] ? -v : v;
+    const int piece = pieces.piece[Z(f)];
+    const Vec3& o = pos[Z(source[Z(faces[Z(pieces.seeds[Z(piece)])][0])])];
+    const double v =
+        SixVolume(o, pos[Z(source[Z(t[0])])], pos[Z(source[Z(t[1])])], pos[Z(source[Z(t[2])])]);
+    six[Z(piece)] += pieces.flip[Z(f)] ? -v : v;
   }
-  for (std::size_t p = 0; p < num_pieces; ++p) {
+  for (std::size_t p = 0; p < six.size(); ++p) {
     if (six[p] < 0.0) {
       six[p] = -six[p];
       for (int f = 0; f < n; ++f) {
-        if (piece[Z(f)] == static_cast<int>(p)) flip[Z(f)] ^= 1;
+        if (pieces.piece[Z(f)] == static_cast<int>(p)) pieces.flip[Z(f)] ^= 1;
       }
     }
   }
   for (int f = 0; f < n; ++f) {
-    if (flip[Z(f)]) std::swap(faces[Z(f)][1], faces[Z(f)][2]);
+    if (pieces.flip[Z(f)]) std::swap(faces[Z(f)][1], faces[Z(f)][2]);
   }
+  return six;
+}
 
-  // Several pieces: keep the largest by volume. Pieces entirely inside it (every vertex strictly
-  // inside) are inner shells, cavities or hidden parts: dropping them leaves the outer surface
-  // as it is. Pieces outside it are separate parts: dropped as debris only when tiny.
-  std::size_t main_piece = 0;
-  if (num_pieces > 1) {
-    for (std::size_t p = 1; p < num_pieces; ++p) {
-      if (six[p] > six[main_piece]) main_piece = p;
-    }
-    double total = 0.0;
-    for (const double v : six) total += v;
-    std::vector<int> vertex_piece(nvk, -1);
-    for (int f = 0; f < n; ++f) {
-      for (const int v : faces[Z(f)]) vertex_piece[Z(v)] = piece[Z(f)];
-    }
-    std::vector<char> inside(num_pieces, 0);
-    SurfaceMesh sm;
-    std::vector<SurfaceMesh::Vertex_index> ids(nvk);
-    bool built = true;
+/// Which pieces lie entirely inside `main_piece` (every vertex strictly inside it, by CGAL's
+/// Side_of_triangle_mesh); none when that cannot be told.
+std::vector<char> PiecesInsideMain(const std::vector<Vec3>& pos, const std::vector<int>& source,
+                                   const std::vector<Face>& faces, const Pieces& pieces,
+                                   std::size_t main_piece) {
+  const std::size_t nvk = source.size();
+  const std::size_t num_pieces = pieces.seeds.size();
+  std::vector<int> vertex_piece(nvk, -1);
+  for (std::size_t f = 0; f < faces.size(); ++f) {
+    for (const int v : faces[f]) vertex_piece[Z(v)] = pieces.piece[f];
+  }
+  std::vector<char> inside(num_pieces, 0);
+  SurfaceMesh sm;
+  std::vector<SurfaceMesh::Vertex_index> ids(nvk);
+  bool built = true;
+  for (std::size_t v = 0; v < nvk; ++v) {
+    if (vertex_piece[v] != static_cast<int>(main_piece)) continue;
+    const Vec3& p = pos[Z(source[v])];
+    ids[v] = sm.add_vertex({p[0], p[1], p[2]});
+  }
+  for (std::size_t f = 0; f < faces.size() && built; ++f) {
+    if (pieces.piece[f] != static_cast<int>(main_piece)) continue;
+    const Face& t = faces[f];
+    built = sm.add_face(ids[Z(t[0])], ids[Z(t[1])], ids[Z(t[2])]) != SurfaceMesh::null_face();
+  }
+  if (!built) return inside;
+  try {
+    const CGAL::Side_of_triangle_mesh<SurfaceMesh, Kernel> side(sm);
+    std::fill(inside.begin(), inside.end(), 1);
+    inside[main_piece] = 0;
     for (std::size_t v = 0; v < nvk; ++v) {
-      if (vertex_piece[v] != static_cast<int>(main_piece)) continue;
-      const Vec3& p = pos[Z(out.source[v])];
-      ids[v] = sm.add_vertex({p[0], p[1], p[2]});
+      const auto p = Z(vertex_piece[v]);
+      if (p == main_piece || !inside[p]) continue;
+      const Vec3& q = pos[Z(source[v])];
+      if (side(Kernel::Point_3(q[0], q[1], q[2])) != CGAL::ON_BOUNDED_SIDE) inside[p] = 0;
     }
-    for (int f = 0; f < n && built; ++f) {
-      if (piece[Z(f)] != static_cast<int>(main_piece)) continue;
-      const Face& t = faces[Z(f)];
-      built = sm.add_face(ids[Z(t[0])], ids[Z(t[1])], ids[Z(t[2])]) != SurfaceMesh::null_face();
-    }
-    if (built) {
-      try {
-        const CGAL::Side_of_triangle_mesh<SurfaceMesh, Kernel> side(sm);
-        std::fill(inside.begin(), inside.end(), 1);
-        inside[main_piece] = 0;
-        for (std::size_t v = 0; v < nvk; ++v) {
-          const auto p = Z(vertex_piece[v]);
-          if (p == main_piece || !inside[p]) continue;
-          const Vec3& q = pos[Z(out.source[v])];
-          if (side(Kernel::Point_3(q[0], q[1], q[2])) != CGAL::ON_BOUNDED_SIDE) inside[p] = 0;
-        }
-      } catch (const std::exception&) {
-        std::fill(inside.begin(), inside.end(), 0);  // cannot tell: count them as outside
-      }
-    }
-    double inner_volume = 0.0, outer_volume = 0.0;
-    int outer = 0;
-    for (std::size_t p = 0; p < num_pieces; ++p) {
-      if (p == main_piece) continue;
-      if (inside[p]) {
-        ++counts.inner_pieces;
-        inner_volume += six[p];
-      } else {
-        ++outer;
-        outer_volume += six[p];
-      }
-    }
-    if (outer > 0 && !(outer_volume <= options.max_debris_volume_fraction * total)) {
-      return Refuse("the mesh has " + std::to_string(num_pieces) + " separate closed pieces and " +
-                    Count(outer, "of them lies", "of them lie") + " outside the largest, holding " +
-                    Percent(outer_volume / total) +
-                    " of the volume: upload one object, or join the parts into one closed "
-                    "surface");
-    }
-    counts.debris_pieces = outer;
-    counts.dropped_volume_fraction = total > 0.0 ? (inner_volume + outer_volume) / total : 0.0;
+  } catch (const std::exception&) {
+    std::fill(inside.begin(), inside.end(), 0);  // cannot tell: count them as outside
   }
+  return inside;
+}
 
-  // The main piece, compacted once more.
+/// Several pieces: keeps the largest by volume. Pieces entirely inside it are inner shells,
+/// cavities or hidden parts: dropping them leaves the outer surface as it is. Pieces outside it
+/// are separate parts: dropped as debris only when tiny, else the mesh is refused. Returns the
+/// main piece.
+core::Result<std::size_t> ChooseMainPiece(const std::vector<Vec3>& pos,
+                                          const std::vector<int>& source,
+                                          const std::vector<Face>& faces, const Pieces& pieces,
+                                          const std::vector<double>& six,
+                                          const PrepareOptions& options, RepairCounts& counts) {
+  const std::size_t num_pieces = six.size();
+  std::size_t main_piece = 0;
+  if (num_pieces <= 1) return main_piece;
+  for (std::size_t p = 1; p < num_pieces; ++p) {
+    if (six[p] > six[main_piece]) main_piece = p;
+  }
+  double total = 0.0;
+  for (const double v : six) total += v;
+  const std::vector<char> inside = PiecesInsideMain(pos, source, faces, pieces, main_piece);
+  double inner_volume = 0.0, outer_volume = 0.0;
+  int outer = 0;
+  for (std::size_t p = 0; p < num_pieces; ++p) {
+    if (p == main_piece) continue;
+    if (inside[p]) {
+      ++counts.inner_pieces;
+      inner_volume += six[p];
+    } else {
+      ++outer;
+      outer_volume += six[p];
+    }
+  }
+  if (outer > 0 && !(outer_volume <= options.max_debris_volume_fraction * total)) {
+    return Refuse("the mesh has " + std::to_string(num_pieces) + " separate closed pieces and " +
+                  Count(outer, "of them lies", "of them lie") + " outside the largest, holding " +
+                  Percent(outer_volume / total) +
+                  " of the volume: upload one object, or join the parts into one closed "
+                  "surface");
+  }
+  counts.debris_pieces = outer;
+  counts.dropped_volume_fraction = total > 0.0 ? (inner_volume + outer_volume) / total : 0.0;
+  return main_piece;
+}
+
+/// The faces of `main_piece`; counts those that were reversed.
+std::vector<Face> MainPieceFaces(const std::vector<Face>& faces, const Pieces& pieces,
+                                 std::size_t main_piece, RepairCounts& counts) {
   std::vector<Face> kept;
   kept.reserve(faces.size());
-  for (int f = 0; f < n; ++f) {
-    if (piece[Z(f)] != static_cast<int>(main_piece)) continue;
-    kept.push_back(faces[Z(f)]);
-    if (flip[Z(f)]) ++counts.reoriented_faces;
+  for (std::size_t f = 0; f < faces.size(); ++f) {
+    if (pieces.piece[f] != static_cast<int>(main_piece)) continue;
+    kept.push_back(faces[f]);
+    if (pieces.flip[f]) ++counts.reoriented_faces;
   }
   counts.turned_inside_out =
       counts.reoriented_faces > 0 && counts.reoriented_faces == static_cast<int>(kept.size());
-  std::fill(new_id.begin(), new_id.end(), -1);
-  for (const Face& t : kept) {
-    for (const int v : t) new_id[Z(v)] = 0;
-  }
-  std::vector<int> source;
-  for (std::size_t v = 0; v < nvk; ++v) {
-    if (new_id[v] == 0) {
-      new_id[v] = static_cast<int>(source.size());
-      source.push_back(out.source[v]);
-      out.mesh.vertices.push_back(pos[Z(out.source[v])]);
-    }
-  }
-  for (Face& t : kept) {
-    for (int& v : t) v = new_id[Z(v)];
-  }
+  return kept;
+}
 
-  // Zero-area faces, judged on the file's own coordinates: a scale can turn collinear points
-  // into nearly collinear ones, which are not caught but still form a sliver.
+/// Zero-area faces, judged on the file's own coordinates: a scale can turn collinear points
+/// into nearly collinear ones, which are not caught but still form a sliver.
+std::optional<core::Error> RemoveCollinearFaces(const TriangleMesh& in,
+                                                const std::vector<int>& source,
+                                                std::vector<Face>& faces, RepairCounts& counts) {
   TriangleMesh file_coordinates;
   file_coordinates.vertices.reserve(source.size());
   for (const int v : source) file_coordinates.vertices.push_back(in.vertices[Z(v)]);
-  file_coordinates.faces = std::move(kept);
+  file_coordinates.faces = std::move(faces);
   int first_left = -1;
   const int left =
       FlipCollinearFaces(file_coordinates, &counts.collinear_faces_removed, &first_left);
@@ -631,8 +733,54 @@ core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
     return CollinearRefusal(left,
                             in.vertices[Z(source[Z(file_coordinates.faces[Z(first_left)][0])])]);
   }
-  out.mesh.faces = std::move(file_coordinates.faces);
-  out.source = std::move(source);
+  faces = std::move(file_coordinates.faces);
+  return std::nullopt;
+}
+
+/// The input after the combinatorial repairs: one closed, 2-manifold, outward piece.
+struct Cleaned {
+  TriangleMesh mesh;        ///< coordinates at the pass's scale
+  std::vector<int> source;  ///< input vertex of each vertex (messages quote file coordinates)
+  RepairCounts counts;
+};
+
+/// Welds, drops degenerate and duplicate faces and unused vertices, refuses holes and
+/// non-manifold edges or vertices, orients each piece consistently and outwards, and keeps the
+/// main piece. `scale` multiplies the input coordinates first. Indices and finiteness are
+/// checked by the caller.
+core::Result<Cleaned> CleanTopology(const TriangleMesh& in, double scale,
+                                    const PrepareOptions& options) {
+  RepairCounts counts;
+  const std::vector<Vec3> pos = ScaledPositions(in, scale);
+  const Welding welding = WeldVertices(in, pos, counts);
+  std::vector<Face> faces = SettleCoincidentFaces(in, welding.rep, counts);
+  if (faces.empty()) return NoFacesLeftRefusal(counts);
+
+  // Keep only used vertices, in input order.
+  const std::vector<int> source = CompactVertices(faces, in.vertices.size());
+  counts.unused_vertices += static_cast<int>(welding.positions - source.size());
+  const FilePoints at{in, source};
+
+  const std::string holes_not_filled = FillSmallHoles(pos, source, options, faces, counts);
+  auto joined = JoinFacesAcrossEdges(faces, at, holes_not_filled);
+  if (!joined.ok()) return joined.error();
+  if (auto e = CheckVertexFans(faces, source.size(), joined.value().corners, at)) return *e;
+  auto oriented = OrientPieces(faces, joined.value().adjacent, at);
+  if (!oriented.ok()) return oriented.error();
+  Pieces pieces = std::move(oriented).value();
+  const std::vector<double> six = TurnPiecesOutwards(pos, source, faces, pieces);
+  const auto main_piece = ChooseMainPiece(pos, source, faces, pieces, six, options, counts);
+  if (!main_piece.ok()) return main_piece.error();
+
+  // The main piece, compacted once more.
+  std::vector<Face> kept = MainPieceFaces(faces, pieces, main_piece.value(), counts);
+  Cleaned out;
+  for (const int v : CompactVertices(kept, source.size())) {
+    out.source.push_back(source[Z(v)]);
+    out.mesh.vertices.push_back(pos[Z(source[Z(v)])]);
+  }
+  if (auto e = RemoveCollinearFaces(in, out.source, kept, counts)) return *e;
+  out.mesh.faces = std::move(kept);
   out.counts = counts;
   return out;
 }
@@ -644,6 +792,35 @@ struct Geometry {
   std::array<Vec3, 3> axes{};  ///< by extent ascending
   Vec3 extents{};              ///< along `axes`; the bounding box's sides when volume <= 0
 };
+
+/// The eigenvectors of the covariance `cov`, by moment ascending; the file axes when Eigen fails
+/// or all three moments are equal.
+std::array<Eigen::Vector3d, 3> PrincipalAxes(const Eigen::Matrix3d& cov) {
+  std::array<Eigen::Vector3d, 3> axes = {Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(),
+                                         Eigen::Vector3d::UnitZ()};
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  if (eig.info() != Eigen::Success || !eig.eigenvalues().allFinite()) return axes;
+  const Eigen::Vector3d lambda = eig.eigenvalues();  // ascending
+  const double tol = kEqualMomentsTolerance * std::abs(lambda[2]);
+  const bool eq01 = lambda[1] - lambda[0] <= tol;
+  const bool eq12 = lambda[2] - lambda[1] <= tol;
+  if (!eq01 && !eq12) {
+    for (int k = 0; k < 3; ++k) axes[Z(k)] = eig.eigenvectors().col(k);
+  } else if (eq01 != eq12) {
+    // One distinct axis u; in the plane of the equal ones, the file axis nearest that plane
+    // (projected into it) and its cross product with u.
+    const Eigen::Vector3d u = eig.eigenvectors().col(eq01 ? 2 : 0);
+    Eigen::Vector3d best = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d e = Eigen::Vector3d::Unit(k);
+      const Eigen::Vector3d p = e - e.dot(u) * u;
+      if (p.norm() > best.norm() + 1e-12) best = p;
+    }
+    const Eigen::Vector3d a1 = best.normalized();
+    axes = {u, a1, u.cross(a1)};
+  }  // all equal: the file axes
+  return axes;
+}
 
 /// With `fixed_axes`, the extents are measured along those instead of the principal axes.
 Geometry Measure(const TriangleMesh& m, const std::array<Vec3, 3>* fixed_axes = nullptr) {
@@ -681,30 +858,7 @@ Geometry Measure(const TriangleMesh& m, const std::array<Vec3, 3>* fixed_axes = 
     for (std::size_t k = 0; k < 3; ++k) {
       g.centroid[k] = mean[static_cast<Eigen::Index>(k)] + o[static_cast<Eigen::Index>(k)];
     }
-    if (fixed_axes == nullptr) {
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-      if (eig.info() == Eigen::Success && eig.eigenvalues().allFinite()) {
-        const Eigen::Vector3d lambda = eig.eigenvalues();  // ascending
-        const double tol = kEqualMomentsTolerance * std::abs(lambda[2]);
-        const bool eq01 = lambda[1] - lambda[0] <= tol;
-        const bool eq12 = lambda[2] - lambda[1] <= tol;
-        if (!eq01 && !eq12) {
-          for (int k = 0; k < 3; ++k) axes[Z(k)] = eig.eigenvectors().col(k);
-        } else if (eq01 != eq12) {
-          // One distinct axis u; in the plane of the equal ones, the file axis nearest that
-          // plane (projected into it) and its cross product with u.
-          const Eigen::Vector3d u = eig.eigenvectors().col(eq01 ? 2 : 0);
-          Eigen::Vector3d best = Eigen::Vector3d::Zero();
-          for (int k = 0; k < 3; ++k) {
-            const Eigen::Vector3d e = Eigen::Vector3d::Unit(k);
-            const Eigen::Vector3d p = e - e.dot(u) * u;
-            if (p.norm() > best.norm() + 1e-12) best = p;
-          }
-          const Eigen::Vector3d a1 = best.normalized();
-          axes = {u, a1, u.cross(a1)};
-        }  // all equal: the file axes
-      }
-    }
+    if (fixed_axes == nullptr) axes = PrincipalAxes(cov);
   }
   for (std::size_t k = 0; k < 3; ++k) {
     double lo = INFINITY, hi = -INFINITY;
@@ -827,9 +981,9 @@ bool FewOverlappingBoxes(const TriangleMesh& m, std::int64_t budget) {
   return true;
 }
 
-}  // namespace
-
-core::Result<PreparedMesh> PrepareMesh(TriangleMesh mesh, const PrepareOptions& options) {
+/// Throws for limits that are not positive and finite (the caller's bug), and refuses a unit or
+/// a rescale target that is not a positive length (the request's fault).
+std::optional<core::Error> CheckOptions(const PrepareOptions& options) {
   if (options.max_triangles < 1 || !Positive(options.min_extent_m) ||
       !Positive(options.max_extent_m) || !(options.max_debris_volume_fraction >= 0.0) ||
       !(options.max_debris_volume_fraction <= 1.0) ||
@@ -848,7 +1002,13 @@ core::Result<PreparedMesh> PrepareMesh(TriangleMesh mesh, const PrepareOptions& 
     return MakeError(ErrorCode::kInvalidArgument,
                      "the rescale target must be a positive length in metres", "rescale");
   }
-  const TriangleMesh& in = mesh;
+  return std::nullopt;
+}
+
+/// Refuses a mesh with too many triangles or vertices, none, a face index out of range, a
+/// non-finite coordinate, or coordinates beyond kMaxCoordinateM after the unit conversion.
+/// Returns the largest absolute coordinate (file units).
+core::Result<double> CheckInputMesh(const TriangleMesh& in, const PrepareOptions& options) {
   if (static_cast<std::int64_t>(in.faces.size()) > options.max_triangles) {
     return MakeError(ErrorCode::kTooLarge,
                      "the mesh has " + std::to_string(in.faces.size()) + " triangles; at most " +
@@ -885,32 +1045,35 @@ core::Result<PreparedMesh> PrepareMesh(TriangleMesh mesh, const PrepareOptions& 
                   " m after the unit conversion, far beyond any object to grasp (is the unit "
                   "right?)");
   }
+  return largest;
+}
 
-  auto pass = CleanTopology(in, options.unit_scale_m, options);
-  if (!pass.ok()) return pass.error();
-  Cleaned cleaned = std::move(pass).value();
-  TriangleMesh& m = cleaned.mesh;
-  Geometry geometry = Measure(m);
-  if (auto e = CheckVolume(geometry)) return *e;
-  const Vec3 extents_before = geometry.extents;
-  double factor = 1.0;
-  if (options.rescale_min_extent_m) {
-    factor = *options.rescale_min_extent_m / geometry.extents[0];
-    if (!Positive(factor) || !Positive(options.unit_scale_m * factor)) {
-      return Refuse("the mesh cannot be rescaled: its smallest extent is " +
-                    Num(geometry.extents[0]) + " m");
-    }
-    if (largest * options.unit_scale_m * factor > kMaxCoordinateM) {
-      return Refuse("coordinates reach " + Num(largest * options.unit_scale_m * factor) +
-                    " m after the rescale, far beyond any object to grasp");
-    }
-    for (auto& v : m.vertices) {
-      for (double& x : v) x *= factor;
-    }
-    // A uniform scale about the origin does not turn the principal axes: measure along the same.
-    geometry = Measure(m, &geometry.axes);
-    if (auto e = CheckVolume(geometry)) return *e;
+/// Scales `m` about the origin so that its smallest principal extent becomes
+/// options.rescale_min_extent_m, and measures `geometry` anew; `largest` is the largest absolute
+/// input coordinate. Returns the factor.
+core::Result<double> RescaleToMinExtent(TriangleMesh& m, Geometry& geometry, double largest,
+                                        const PrepareOptions& options) {
+  const double factor = *options.rescale_min_extent_m / geometry.extents[0];
+  if (!Positive(factor) || !Positive(options.unit_scale_m * factor)) {
+    return Refuse("the mesh cannot be rescaled: its smallest extent is " +
+                  Num(geometry.extents[0]) + " m");
   }
+  if (largest * options.unit_scale_m * factor > kMaxCoordinateM) {
+    return Refuse("coordinates reach " + Num(largest * options.unit_scale_m * factor) +
+                  " m after the rescale, far beyond any object to grasp");
+  }
+  for (auto& v : m.vertices) {
+    for (double& x : v) x *= factor;
+  }
+  // A uniform scale about the origin does not turn the principal axes: measure along the same.
+  geometry = Measure(m, &geometry.axes);
+  if (auto e = CheckVolume(geometry)) return *e;
+  return factor;
+}
+
+/// Refuses a mesh whose smallest principal extent is below options.min_extent_m or whose largest
+/// is above options.max_extent_m.
+std::optional<core::Error> CheckExtents(const Geometry& geometry, const PrepareOptions& options) {
   const std::string unit_hint = options.rescale_min_extent_m ? "" : " (is the unit right?)";
   if (geometry.extents[0] < options.min_extent_m) {
     return Refuse("the mesh is too small: its smallest principal extent is " +
@@ -922,17 +1085,14 @@ core::Result<PreparedMesh> PrepareMesh(TriangleMesh mesh, const PrepareOptions& 
                   Num(geometry.extents[2]) + " m, above the " + Num(options.max_extent_m) +
                   " m accepted" + unit_hint);
   }
+  return std::nullopt;
+}
 
-  // Once more on the returned coordinates: rounding in the scale can make points collinear.
-  int first_left = -1, removed = 0;
-  const int collinear_left = FlipCollinearFaces(m, &removed, &first_left);
-  cleaned.counts.collinear_faces_removed += removed;
-  if (collinear_left > 0) {
-    return CollinearRefusal(collinear_left,
-                            in.vertices[Z(cleaned.source[Z(m.faces[Z(first_left)][0])])]);
-  }
-
-  PreparedMesh out;
+/// Checks the prepared mesh into out.report, testing self-intersections only when few pairs of
+/// faces have overlapping bounding boxes. Anything the preparation should have repaired is an
+/// internal error; self-intersections are refused or added to out.warnings as the options say.
+std::optional<core::Error> CheckPrepared(const TriangleMesh& m, const PrepareOptions& options,
+                                         PreparedMesh& out) {
   const auto box_pair_budget = std::max(
       options.self_intersection_min_box_pairs,
       static_cast<std::int64_t>(std::min(9e18, options.self_intersection_box_pairs_per_face *
@@ -965,7 +1125,44 @@ core::Result<PreparedMesh> PrepareMesh(TriangleMesh mesh, const PrepareOptions& 
                            " pairs of faces have overlapping bounding boxes (a large triangle "
                            "fan?), which would make the test slow");
   }
+  return std::nullopt;
+}
 
+}  // namespace
+
+core::Result<PreparedMesh> PrepareMesh(TriangleMesh mesh, const PrepareOptions& options) {
+  if (auto e = CheckOptions(options)) return *e;
+  const TriangleMesh& in = mesh;
+  const auto input = CheckInputMesh(in, options);
+  if (!input.ok()) return input.error();
+  const double largest = input.value();
+
+  auto pass = CleanTopology(in, options.unit_scale_m, options);
+  if (!pass.ok()) return pass.error();
+  Cleaned cleaned = std::move(pass).value();
+  TriangleMesh& m = cleaned.mesh;
+  Geometry geometry = Measure(m);
+  if (auto e = CheckVolume(geometry)) return *e;
+  const Vec3 extents_before = geometry.extents;
+  double factor = 1.0;
+  if (options.rescale_min_extent_m) {
+    const auto rescaled = RescaleToMinExtent(m, geometry, largest, options);
+    if (!rescaled.ok()) return rescaled.error();
+    factor = rescaled.value();
+  }
+  if (auto e = CheckExtents(geometry, options)) return *e;
+
+  // Once more on the returned coordinates: rounding in the scale can make points collinear.
+  int first_left = -1, removed = 0;
+  const int collinear_left = FlipCollinearFaces(m, &removed, &first_left);
+  cleaned.counts.collinear_faces_removed += removed;
+  if (collinear_left > 0) {
+    return CollinearRefusal(collinear_left,
+                            in.vertices[Z(cleaned.source[Z(m.faces[Z(first_left)][0])])]);
+  }
+
+  PreparedMesh out;
+  if (auto e = CheckPrepared(m, options, out)) return *e;
   out.counts = cleaned.counts;
   out.repairs = RepairLines(out.counts);
   out.unit_scale_m = options.unit_scale_m;

@@ -204,6 +204,256 @@ core::Error Unprocessable(std::string message, std::string field) {
   return core::MakeError(core::ErrorCode::kUnprocessable, std::move(message), std::move(field));
 }
 
+/// The mesh's vertices as points, and the diagonal of their bounding box.
+struct MeshPoints {
+  std::vector<Eigen::Vector3d> points;
+  double diagonal = 0.0;
+};
+
+/// Refuses fewer than 4 vertices, more than an int indexes, a non-finite coordinate, or
+/// vertices that all coincide.
+core::Result<MeshPoints> PointsOf(const TriangleMesh& mesh) {
+  if (mesh.vertices.size() < 4) {
+    return Unprocessable("a mesh needs at least 4 vertices to rest on a table, got " +
+                             std::to_string(mesh.vertices.size()),
+                         "mesh");
+  }
+  if (mesh.vertices.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) {
+    return Unprocessable("too many vertices", "mesh");
+  }
+  MeshPoints out;
+  out.points.reserve(mesh.vertices.size());
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const auto& v : mesh.vertices) {
+    const Eigen::Vector3d p(v[0], v[1], v[2]);
+    if (!p.allFinite()) return Unprocessable("a vertex has a non-finite coordinate", "mesh");
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+    out.points.push_back(p);
+  }
+  out.diagonal = (hi - lo).norm();
+  if (!(out.diagonal > 0.0) || !std::isfinite(out.diagonal)) {
+    return Unprocessable("all vertices coincide (or the mesh is too large to measure)", "mesh");
+  }
+  return out;
+}
+
+/// options.center_of_mass, or else the centroid of the enclosed volume.
+core::Result<Eigen::Vector3d> CentreOfMass(const TriangleMesh& mesh,
+                                           const StablePoseOptions& options) {
+  if (options.center_of_mass) {
+    const Eigen::Vector3d com = *options.center_of_mass;
+    if (!com.allFinite()) {
+      return Unprocessable("center_of_mass has a non-finite coordinate", "center_of_mass");
+    }
+    return com;
+  }
+  const Eigen::Vector3d com = VolumeCentroid(mesh);
+  if (!com.allFinite()) {
+    return Unprocessable(
+        "the mesh encloses no positive volume (open, inward-facing or bad face indices), so it "
+        "has no default centre of mass; pass center_of_mass",
+        "center_of_mass");
+  }
+  return com;
+}
+
+/// ConvexHullFacets, refusing points with no 3-d hull.
+core::Result<std::vector<HullFacet>> HullOf(const std::vector<Eigen::Vector3d>& points,
+                                            double flat) {
+  int exit_code = 0;
+  std::vector<HullFacet> facets = ConvexHullFacets(points, flat, exit_code);
+  if (exit_code == -1) {
+    return core::MakeError(core::ErrorCode::kInternal, "cannot open /dev/null for Qhull");
+  }
+  if (exit_code != 0 || facets.size() < 4) {
+    return Unprocessable(
+        "the vertices have no 3-d convex hull (all coplanar or nearly so; Qhull exit code " +
+            std::to_string(exit_code) + ")",
+        "mesh");
+  }
+  return facets;
+}
+
+/// Heights of the COM above each facet plane (positive inside); refuses a COM that is not at
+/// least `flat` inside every facet.
+core::Result<std::vector<double>> ComHeights(const std::vector<HullFacet>& facets,
+                                             const Eigen::Vector3d& com, double flat) {
+  std::vector<double> height(facets.size());
+  for (std::size_t i = 0; i < facets.size(); ++i) {
+    height[i] = facets[i].offset - facets[i].normal.dot(com);
+    if (!(height[i] > flat)) {
+      return Unprocessable("the centre of mass is not strictly inside the convex hull",
+                           "center_of_mass");
+    }
+  }
+  return height;
+}
+
+/// Each facet's prior: the solid angle it subtends from the COM, as a fraction of the whole.
+std::vector<double> SolidAnglePriors(const std::vector<Eigen::Vector3d>& points,
+                                     const std::vector<HullFacet>& facets,
+                                     const Eigen::Vector3d& com) {
+  std::vector<double> prior(facets.size(), 0.0);
+  double total_angle = 0.0;
+  for (std::size_t i = 0; i < facets.size(); ++i) {
+    const HullFacet& f = facets[i];
+    const Eigen::Vector3d first = points[static_cast<std::size_t>(f.vertices[0])] - com;
+    for (std::size_t k = 1; k + 1 < f.vertices.size(); ++k) {
+      prior[i] += TriangleSolidAngle(first, points[static_cast<std::size_t>(f.vertices[k])] - com,
+                                     points[static_cast<std::size_t>(f.vertices[k + 1])] - com);
+    }
+    total_angle += prior[i];
+  }
+  // total_angle is 4 pi up to rounding; dividing by it makes the priors sum to 1.
+  for (double& p : prior) p /= total_angle;
+  return prior;
+}
+
+/// The edge (its index in f.vertices: from vertex k to k + 1) that facet `f` topples over when
+/// resting on it, the COM `height` above it: the edge nearest the projected COM, ties to the one
+/// it lies further outside of. -1 for a sink: the projected COM is not more than `flat` outside
+/// any edge.
+int TopplingEdge(const std::vector<Eigen::Vector3d>& points, const HullFacet& f, double height,
+                 const Eigen::Vector3d& com, double diagonal, double flat) {
+  const Eigen::Vector3d projected = com + height * f.normal;
+  const std::size_t m = f.vertices.size();
+  double max_outside = -std::numeric_limits<double>::infinity();
+  int best_edge = -1;
+  double best_distance = std::numeric_limits<double>::infinity(), best_outside = 0.0;
+  for (std::size_t k = 0; k < m; ++k) {
+    const Eigen::Vector3d a = points[static_cast<std::size_t>(f.vertices[k])];
+    const Eigen::Vector3d b = points[static_cast<std::size_t>(f.vertices[(k + 1) % m])];
+    const Eigen::Vector3d edge = b - a;
+    const double length = edge.norm();
+    if (!(length > 0.0)) continue;
+    // For a counter-clockwise polygon about n, edge x n points out of the polygon.
+    const double outside = (projected - a).dot(edge.cross(f.normal)) / length;
+    max_outside = std::max(max_outside, outside);
+    const double t = std::clamp((projected - a).dot(edge) / (length * length), 0.0, 1.0);
+    const double distance = (projected - (a + t * edge)).norm();
+    const double tie = kTieTolerance * diagonal;
+    if (distance < best_distance - tie ||
+        (distance <= best_distance + tie && outside > best_outside)) {
+      best_edge = static_cast<int>(k);
+      best_distance = distance;
+      best_outside = outside;
+    }
+  }
+  if (max_outside <= flat) return -1;  // sink: COM above the facet
+  return best_edge;
+}
+
+/// The toppling graph: next[i] = facet i topples onto, -1 for a sink.
+core::Result<std::vector<int>> TopplingGraph(const std::vector<Eigen::Vector3d>& points,
+                                             const std::vector<HullFacet>& facets,
+                                             const std::vector<double>& height,
+                                             const Eigen::Vector3d& com, double diagonal,
+                                             double flat) {
+  // Facets by vertex, to find the neighbour across an edge (the other facet holding both ends).
+  std::map<int, std::vector<int>> facets_of_vertex;
+  for (std::size_t i = 0; i < facets.size(); ++i) {
+    for (int v : facets[i].vertices) facets_of_vertex[v].push_back(static_cast<int>(i));
+  }
+  std::vector<int> next(facets.size(), -1);
+  for (std::size_t i = 0; i < facets.size(); ++i) {
+    const HullFacet& f = facets[i];
+    const int best_edge = TopplingEdge(points, f, height[i], com, diagonal, flat);
+    if (best_edge < 0) continue;
+    const std::size_t m = f.vertices.size();
+    const int a = f.vertices[static_cast<std::size_t>(best_edge)];
+    const int b = f.vertices[(static_cast<std::size_t>(best_edge) + 1) % m];
+    int neighbour = -1;
+    for (int g : facets_of_vertex[a]) {
+      if (g == static_cast<int>(i)) continue;
+      const auto& gv = facets[static_cast<std::size_t>(g)].vertices;
+      if (std::find(gv.begin(), gv.end(), b) != gv.end()) {
+        neighbour = g;
+        break;
+      }
+    }
+    if (neighbour < 0) {
+      return core::MakeError(core::ErrorCode::kInternal,
+                             "convex hull facet has no neighbour across an edge");
+    }
+    next[i] = neighbour;
+  }
+  return next;
+}
+
+/// Cut cycles (possible only through rounding): each is cut at its facet with the lowest COM
+/// height, which becomes a sink, so the whole cycle ends there.
+void CutCycles(const std::vector<double>& height, std::vector<int>& next) {
+  std::vector<char> state(next.size(), 0);  // 0 unseen, 1 on the current path, 2 finished
+  for (std::size_t start = 0; start < next.size(); ++start) {
+    std::vector<int> path;
+    int current = static_cast<int>(start);
+    while (state[static_cast<std::size_t>(current)] == 0 &&
+           next[static_cast<std::size_t>(current)] >= 0) {
+      state[static_cast<std::size_t>(current)] = 1;
+      path.push_back(current);
+      current = next[static_cast<std::size_t>(current)];
+    }
+    if (state[static_cast<std::size_t>(current)] == 1) {
+      int lowest = current;
+      for (auto it = std::find(path.begin(), path.end(), current); it != path.end(); ++it) {
+        const double h = height[static_cast<std::size_t>(*it)];
+        const double l = height[static_cast<std::size_t>(lowest)];
+        if (h < l || (h == l && *it < lowest)) lowest = *it;
+      }
+      next[static_cast<std::size_t>(lowest)] = -1;
+    }
+    state[static_cast<std::size_t>(current)] = 2;
+    for (int p : path) state[static_cast<std::size_t>(p)] = 2;
+  }
+}
+
+/// Follow the (acyclic) graph to the sinks, remembering every answer on the way: sink[i] is
+/// where facet i comes to rest.
+std::vector<int> Sinks(const std::vector<int>& next) {
+  std::vector<int> sink(next.size(), -1);
+  for (std::size_t start = 0; start < next.size(); ++start) {
+    std::vector<int> path;
+    int current = static_cast<int>(start);
+    while (sink[static_cast<std::size_t>(current)] < 0 &&
+           next[static_cast<std::size_t>(current)] >= 0) {
+      path.push_back(current);
+      current = next[static_cast<std::size_t>(current)];
+    }
+    const int reached = sink[static_cast<std::size_t>(current)] >= 0
+                            ? sink[static_cast<std::size_t>(current)]
+                            : current;
+    sink[static_cast<std::size_t>(current)] = reached;
+    for (int p : path) sink[static_cast<std::size_t>(p)] = reached;
+  }
+  return sink;
+}
+
+/// The object resting on facet `f` with its COM `height` above the table.
+StablePose PoseOn(const HullFacet& f, double probability, double height,
+                  const Eigen::Vector3d& com) {
+  StablePose pose;
+  pose.probability = probability;
+  pose.face_normal_object = f.normal;
+  pose.com_height_m = height;
+  pose.face_vertex_indices = f.vertices;
+  // Table axes in object coordinates: z = -n; x = the object axis least aligned with n,
+  // projected into the facet plane; y = z x x.
+  const Eigen::Vector3d z = -f.normal;
+  Eigen::Index axis = 0;
+  f.normal.cwiseAbs().minCoeff(&axis);
+  const Eigen::Vector3d e = Eigen::Vector3d::Unit(axis);
+  const Eigen::Vector3d x = (e - e.dot(z) * z).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  pose.table_from_object_rotation.row(0) = x.transpose();
+  pose.table_from_object_rotation.row(1) = y.transpose();
+  pose.table_from_object_rotation.row(2) = z.transpose();
+  pose.table_from_object_translation =
+      Eigen::Vector3d(0.0, 0.0, height) - pose.table_from_object_rotation * com;
+  return pose;
+}
+
 }  // namespace
 
 Eigen::Vector3d VolumeCentroid(const TriangleMesh& mesh) {
@@ -239,176 +489,28 @@ core::Result<std::vector<StablePose>> ComputeStablePoses(const TriangleMesh& mes
     return core::MakeError(core::ErrorCode::kInvalidArgument,
                            "min_probability must be a finite number >= 0", "min_probability");
   }
-  if (mesh.vertices.size() < 4) {
-    return Unprocessable("a mesh needs at least 4 vertices to rest on a table, got " +
-                             std::to_string(mesh.vertices.size()),
-                         "mesh");
-  }
-  if (mesh.vertices.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) {
-    return Unprocessable("too many vertices", "mesh");
-  }
-  std::vector<Eigen::Vector3d> points;
-  points.reserve(mesh.vertices.size());
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d hi = -lo;
-  for (const auto& v : mesh.vertices) {
-    const Eigen::Vector3d p(v[0], v[1], v[2]);
-    if (!p.allFinite()) return Unprocessable("a vertex has a non-finite coordinate", "mesh");
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-    points.push_back(p);
-  }
-  const double diagonal = (hi - lo).norm();
-  if (!(diagonal > 0.0) || !std::isfinite(diagonal)) {
-    return Unprocessable("all vertices coincide (or the mesh is too large to measure)", "mesh");
-  }
+  const auto measured = PointsOf(mesh);
+  if (!measured.ok()) return measured.error();
+  const std::vector<Eigen::Vector3d>& points = measured.value().points;
+  const double diagonal = measured.value().diagonal;
   const double flat = kFlatTolerance * diagonal;
-
-  Eigen::Vector3d com;
-  if (options.center_of_mass) {
-    com = *options.center_of_mass;
-    if (!com.allFinite()) {
-      return Unprocessable("center_of_mass has a non-finite coordinate", "center_of_mass");
-    }
-  } else {
-    com = VolumeCentroid(mesh);
-    if (!com.allFinite()) {
-      return Unprocessable(
-          "the mesh encloses no positive volume (open, inward-facing or bad face indices), so it "
-          "has no default centre of mass; pass center_of_mass",
-          "center_of_mass");
-    }
-  }
-
-  int exit_code = 0;
-  std::vector<HullFacet> facets = ConvexHullFacets(points, flat, exit_code);
-  if (exit_code == -1) {
-    return core::MakeError(core::ErrorCode::kInternal, "cannot open /dev/null for Qhull");
-  }
-  if (exit_code != 0 || facets.size() < 4) {
-    return Unprocessable(
-        "the vertices have no 3-d convex hull (all coplanar or nearly so; Qhull exit code " +
-            std::to_string(exit_code) + ")",
-        "mesh");
-  }
+  const auto com_or = CentreOfMass(mesh, options);
+  if (!com_or.ok()) return com_or.error();
+  const Eigen::Vector3d& com = com_or.value();
+  const auto hull = HullOf(points, flat);
+  if (!hull.ok()) return hull.error();
+  const std::vector<HullFacet>& facets = hull.value();
   const std::size_t num_facets = facets.size();
+  const auto heights = ComHeights(facets, com, flat);
+  if (!heights.ok()) return heights.error();
+  const std::vector<double>& height = heights.value();
+  const std::vector<double> prior = SolidAnglePriors(points, facets, com);
 
-  // Heights of the COM above each facet plane (positive inside) and the priors.
-  std::vector<double> height(num_facets), prior(num_facets, 0.0);
-  double total_angle = 0.0;
-  for (std::size_t i = 0; i < num_facets; ++i) {
-    const HullFacet& f = facets[i];
-    height[i] = f.offset - f.normal.dot(com);
-    if (!(height[i] > flat)) {
-      return Unprocessable("the centre of mass is not strictly inside the convex hull",
-                           "center_of_mass");
-    }
-    const Eigen::Vector3d first = points[static_cast<std::size_t>(f.vertices[0])] - com;
-    for (std::size_t k = 1; k + 1 < f.vertices.size(); ++k) {
-      prior[i] += TriangleSolidAngle(first, points[static_cast<std::size_t>(f.vertices[k])] - com,
-                                     points[static_cast<std::size_t>(f.vertices[k + 1])] - com);
-    }
-    total_angle += prior[i];
-  }
-  // total_angle is 4 pi up to rounding; dividing by it makes the priors sum to 1.
-  for (double& p : prior) p /= total_angle;
-
-  // Facets by vertex, to find the neighbour across an edge (the other facet holding both ends).
-  std::map<int, std::vector<int>> facets_of_vertex;
-  for (std::size_t i = 0; i < num_facets; ++i) {
-    for (int v : facets[i].vertices) facets_of_vertex[v].push_back(static_cast<int>(i));
-  }
-
-  // The toppling graph: next[i] = facet i topples onto, -1 for a sink.
-  std::vector<int> next(num_facets, -1);
-  for (std::size_t i = 0; i < num_facets; ++i) {
-    const HullFacet& f = facets[i];
-    const Eigen::Vector3d projected = com + height[i] * f.normal;
-    const std::size_t m = f.vertices.size();
-    double max_outside = -std::numeric_limits<double>::infinity();
-    int best_edge = -1;
-    double best_distance = std::numeric_limits<double>::infinity(), best_outside = 0.0;
-    for (std::size_t k = 0; k < m; ++k) {
-      const Eigen::Vector3d a = points[static_cast<std::size_t>(f.vertices[k])];
-      const Eigen::Vector3d b = points[static_cast<std::size_t>(f.vertices[(k + 1) % m])];
-      const Eigen::Vector3d edge = b - a;
-      const double length = edge.norm();
-      if (!(length > 0.0)) continue;
-      // For a counter-clockwise polygon about n, edge x n points out of the polygon.
-      const double outside = (projected - a).dot(edge.cross(f.normal)) / length;
-      max_outside = std::max(max_outside, outside);
-      const double t = std::clamp((projected - a).dot(edge) / (length * length), 0.0, 1.0);
-      const double distance = (projected - (a + t * edge)).norm();
-      const double tie = kTieTolerance * diagonal;
-      if (distance < best_distance - tie ||
-          (distance <= best_distance + tie && outside > best_outside)) {
-        best_edge = static_cast<int>(k);
-        best_distance = distance;
-        best_outside = outside;
-      }
-    }
-    if (max_outside <= flat || best_edge < 0) continue;  // sink: COM above the facet
-    const int a = f.vertices[static_cast<std::size_t>(best_edge)];
-    const int b = f.vertices[(static_cast<std::size_t>(best_edge) + 1) % m];
-    int neighbour = -1;
-    for (int g : facets_of_vertex[a]) {
-      if (g == static_cast<int>(i)) continue;
-      const auto& gv = facets[static_cast<std::size_t>(g)].vertices;
-      if (std::find(gv.begin(), gv.end(), b) != gv.end()) {
-        neighbour = g;
-        break;
-      }
-    }
-    if (neighbour < 0) {
-      return core::MakeError(core::ErrorCode::kInternal,
-                             "convex hull facet has no neighbour across an edge");
-    }
-    next[i] = neighbour;
-  }
-
-  // Cut cycles (possible only through rounding): each is cut at its facet with the lowest COM
-  // height, which becomes a sink, so the whole cycle ends there.
-  {
-    std::vector<char> state(num_facets, 0);  // 0 unseen, 1 on the current path, 2 finished
-    for (std::size_t start = 0; start < num_facets; ++start) {
-      std::vector<int> path;
-      int current = static_cast<int>(start);
-      while (state[static_cast<std::size_t>(current)] == 0 &&
-             next[static_cast<std::size_t>(current)] >= 0) {
-        state[static_cast<std::size_t>(current)] = 1;
-        path.push_back(current);
-        current = next[static_cast<std::size_t>(current)];
-      }
-      if (state[static_cast<std::size_t>(current)] == 1) {
-        int lowest = current;
-        for (auto it = std::find(path.begin(), path.end(), current); it != path.end(); ++it) {
-          const double h = height[static_cast<std::size_t>(*it)];
-          const double l = height[static_cast<std::size_t>(lowest)];
-          if (h < l || (h == l && *it < lowest)) lowest = *it;
-        }
-        next[static_cast<std::size_t>(lowest)] = -1;
-      }
-      state[static_cast<std::size_t>(current)] = 2;
-      for (int p : path) state[static_cast<std::size_t>(p)] = 2;
-    }
-  }
-  // Follow the (now acyclic) graph to the sinks, remembering every answer on the way.
-  std::vector<int> sink(num_facets, -1);
-  for (std::size_t start = 0; start < num_facets; ++start) {
-    std::vector<int> path;
-    int current = static_cast<int>(start);
-    while (sink[static_cast<std::size_t>(current)] < 0 &&
-           next[static_cast<std::size_t>(current)] >= 0) {
-      path.push_back(current);
-      current = next[static_cast<std::size_t>(current)];
-    }
-    const int reached = sink[static_cast<std::size_t>(current)] >= 0
-                            ? sink[static_cast<std::size_t>(current)]
-                            : current;
-    sink[static_cast<std::size_t>(current)] = reached;
-    for (int p : path) sink[static_cast<std::size_t>(p)] = reached;
-  }
-
+  auto graph = TopplingGraph(points, facets, height, com, diagonal, flat);
+  if (!graph.ok()) return graph.error();
+  std::vector<int>& next = graph.value();
+  CutCycles(height, next);
+  const std::vector<int> sink = Sinks(next);
   std::vector<double> probability(num_facets, 0.0);
   for (std::size_t i = 0; i < num_facets; ++i) {
     probability[static_cast<std::size_t>(sink[i])] += prior[i];
@@ -417,26 +519,7 @@ core::Result<std::vector<StablePose>> ComputeStablePoses(const TriangleMesh& mes
   std::vector<StablePose> poses;
   for (std::size_t i = 0; i < num_facets; ++i) {
     if (!(probability[i] > options.min_probability)) continue;
-    const HullFacet& f = facets[i];
-    StablePose pose;
-    pose.probability = probability[i];
-    pose.face_normal_object = f.normal;
-    pose.com_height_m = height[i];
-    pose.face_vertex_indices = f.vertices;
-    // Table axes in object coordinates: z = -n; x = the object axis least aligned with n,
-    // projected into the facet plane; y = z x x.
-    const Eigen::Vector3d z = -f.normal;
-    Eigen::Index axis = 0;
-    f.normal.cwiseAbs().minCoeff(&axis);
-    const Eigen::Vector3d e = Eigen::Vector3d::Unit(axis);
-    const Eigen::Vector3d x = (e - e.dot(z) * z).normalized();
-    const Eigen::Vector3d y = z.cross(x);
-    pose.table_from_object_rotation.row(0) = x.transpose();
-    pose.table_from_object_rotation.row(1) = y.transpose();
-    pose.table_from_object_rotation.row(2) = z.transpose();
-    pose.table_from_object_translation =
-        Eigen::Vector3d(0.0, 0.0, height[i]) - pose.table_from_object_rotation * com;
-    poses.push_back(std::move(pose));
+    poses.push_back(PoseOn(facets[i], probability[i], height[i], com));
   }
   std::sort(poses.begin(), poses.end(), [](const StablePose& a, const StablePose& b) {
     if (a.probability != b.probability) return a.probability > b.probability;

@@ -236,6 +236,274 @@ double InstanceScore(const std::vector<cv::Point>& pixels, double min_cluster_px
   return solidity * size;
 }
 
+core::Error InvalidArgument(std::string message) {
+  return core::MakeError(core::ErrorCode::kInvalidArgument, std::move(message));
+}
+
+/// Refuses a scene whose images are not the camera's size, and parameters out of range.
+std::optional<core::Error> CheckInputs(const core::Scene& scene, const core::Camera& camera,
+                                       const PclParams& requested) {
+  const cv::Size size(camera.width, camera.height);
+  if (scene.depth_filled_m.size() != size || scene.height_m.size() != size ||
+      (!scene.missing_mask.empty() && scene.missing_mask.size() != size)) {
+    return InvalidArgument("SegmentPcl: the scene is " + std::to_string(scene.height_m.cols) + "x" +
+                           std::to_string(scene.height_m.rows) + " but the camera " +
+                           std::to_string(camera.width) + "x" + std::to_string(camera.height));
+  }
+  if (requested.stride_px < 1 || requested.stride_px > 16 || !(requested.cluster_tolerance_m > 0) ||
+      requested.min_cluster_px < 1 || requested.max_cluster_px < requested.min_cluster_px ||
+      !(requested.min_height_m > 0) || !(requested.min_height_lowest_m > 0) ||
+      requested.min_height_lowest_m > requested.min_height_m ||
+      !(requested.floor_noise_sigmas >= 0)) {
+    return InvalidArgument(
+        "SegmentPcl: stride_px must be 1..16, cluster_tolerance_m > 0, "
+        "1 <= min_cluster_px <= max_cluster_px, "
+        "0 < min_height_lowest_m <= min_height_m, floor_noise_sigmas >= 0");
+  }
+  return std::nullopt;
+}
+
+/// Step 1: the candidates (255 in `candidate`: measured pixels at least min_height_m above the
+/// fitted floor), sampled every `stride_px` pixels.
+Samples SampleCandidates(const core::Scene& scene, const core::Camera& camera,
+                         const PclParams& params, cv::Mat1b& candidate) {
+  const int w = candidate.cols, h = candidate.rows;
+  const int stride = params.stride_px;
+  Samples samples;
+  for (int v = 0; v < h; ++v) {
+    const float* z = scene.depth_filled_m[v];
+    const float* height = scene.height_m[v];
+    const std::uint8_t* missing = scene.missing_mask.empty() ? nullptr : scene.missing_mask[v];
+    for (int u = 0; u < w; ++u) {
+      if ((missing && missing[u]) || !std::isfinite(z[u]) || !(z[u] > 0) ||
+          !(height[u] >= params.min_height_m)) {
+        continue;
+      }
+      candidate(v, u) = 255;
+      if (v % stride == 0 && u % stride == 0) {
+        const Eigen::Vector3f p = BackProject(camera, u, v, z[u]);
+        samples.cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+        samples.pixel.emplace_back(u, v);
+      }
+    }
+  }
+  return samples;
+}
+
+/// A point inside the support, to orient the walls: the centroid of the fitted floor's pixels
+/// (every fourth row and column). Nothing when no pixel is on the floor.
+std::optional<Eigen::Vector3f> PointInsideSupport(const core::Scene& scene,
+                                                  const core::Camera& camera,
+                                                  const PclParams& params) {
+  Eigen::Vector3d inside = Eigen::Vector3d::Zero();
+  int inside_count = 0;
+  for (int v = 0; v < scene.height_m.rows; v += 4) {
+    for (int u = 0; u < scene.height_m.cols; u += 4) {
+      if (std::abs(scene.height_m(v, u)) < params.min_height_m) {
+        inside += BackProject(camera, u, v, scene.depth_filled_m(v, u)).cast<double>();
+        ++inside_count;
+      }
+    }
+  }
+  if (inside_count == 0) return std::nullopt;
+  return (inside / inside_count).cast<float>();
+}
+
+/// Clears from `candidate` the support: pixels below the (raised) floor's margin and pixels the
+/// walls cover. Returns the support's floor as measured: the pixels within the margin of
+/// `floor_height_m`.
+cv::Mat1b RemoveSupport(const core::Scene& scene, const core::Camera& camera,
+                        const PclParams& params, const std::vector<Wall>& walls,
+                        double floor_height_m, cv::Mat1b& candidate) {
+  cv::Mat1b floor_px(candidate.size(), static_cast<std::uint8_t>(0));
+  for (int v = 0; v < candidate.rows; ++v) {
+    for (int u = 0; u < candidate.cols; ++u) {
+      const float height = scene.height_m(v, u);
+      const bool missing = !scene.missing_mask.empty() && scene.missing_mask(v, u);
+      if (!missing && std::abs(height - floor_height_m) < params.min_height_m) floor_px(v, u) = 255;
+      if (!candidate(v, u)) continue;
+      bool support = height < floor_height_m + params.min_height_m;
+      if (!support && !walls.empty()) {
+        const Eigen::Vector3f p = BackProject(camera, u, v, scene.depth_filled_m(v, u));
+        for (std::size_t k = 0; k < walls.size() && !support; ++k) {
+          support = walls[k].Covers(p, params);
+        }
+      }
+      if (support) candidate(v, u) = 0;
+    }
+  }
+  return floor_px;
+}
+
+/// Where the floor spans in the image (the convex hull of its opened pixels): objects stand on
+/// it, walls outside.
+cv::Mat1b FloorHull(const cv::Mat1b& floor_px) {
+  cv::Mat1b floor_hull(floor_px.size(), static_cast<std::uint8_t>(0));
+  cv::Mat1b opened;
+  cv::morphologyEx(floor_px, opened, cv::MORPH_OPEN,
+                   cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
+  std::vector<cv::Point> points, hull;
+  cv::findNonZero(opened, points);
+  if (points.size() >= 3) {
+    cv::convexHull(points, hull);
+    cv::fillConvexPoly(floor_hull, hull, cv::Scalar(255));
+  }
+  return floor_hull;
+}
+
+/// Step 3: Euclidean clusters of the samples whose pixels are still candidates, each sample
+/// labelled in `labels` with its cluster (1-based; at most 65535 clusters). Returns how many.
+int ClusterSamples(const Samples& samples, const cv::Mat1b& candidate, const PclParams& params,
+                   int min_px, int max_px, cv::Mat1w& labels) {
+  const int stride2 = params.stride_px * params.stride_px;
+  pcl::IndicesPtr kept(new pcl::Indices);
+  for (std::size_t i = 0; i < samples.pixel.size(); ++i) {
+    if (candidate(samples.pixel[i])) kept->push_back(static_cast<pcl::index_t>(i));
+  }
+  std::vector<pcl::PointIndices> clusters;
+  if (!kept->empty()) {
+    pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
+    tree->setInputCloud(samples.cloud, kept);
+    pcl::EuclideanClusterExtraction<pcl::PointXYZ> ec;
+    ec.setClusterTolerance(params.cluster_tolerance_m);
+    // Loose bounds here; the pixel counts are checked after spreading.
+    ec.setMinClusterSize(std::max(1, min_px / stride2 / 2));
+    ec.setMaxClusterSize(std::max(1, max_px / stride2 * 2));
+    ec.setSearchMethod(tree);
+    ec.setInputCloud(samples.cloud);
+    ec.setIndices(kept);
+    ec.extract(clusters);
+  }
+  const int cluster_count =
+      std::min<int>(static_cast<int>(clusters.size()), std::numeric_limits<std::uint16_t>::max());
+  for (int c = 0; c < cluster_count; ++c) {
+    for (const auto idx : clusters[static_cast<std::size_t>(c)].indices) {
+      labels(samples.pixel[static_cast<std::size_t>(idx)]) = static_cast<std::uint16_t>(c + 1);
+    }
+  }
+  return cluster_count;
+}
+
+/// Spread labels from the samples to the skipped candidate pixels: the nearest (in C) labelled
+/// sample among the four grid corners around the pixel, within the cluster tolerance.
+void SpreadLabels(const core::Scene& scene, const core::Camera& camera, const PclParams& params,
+                  const cv::Mat1b& candidate, cv::Mat1w& labels) {
+  const int w = labels.cols, h = labels.rows;
+  const int stride = params.stride_px;
+  if (stride <= 1) return;
+  const int stride2 = stride * stride;
+  const cv::Mat1w sampled = labels.clone();
+  const float tol2 = static_cast<float>(params.cluster_tolerance_m * params.cluster_tolerance_m) *
+                     static_cast<float>(stride2);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      if (!candidate(v, u) || (v % stride == 0 && u % stride == 0)) continue;
+      const Eigen::Vector3f p = BackProject(camera, u, v, scene.depth_filled_m(v, u));
+      const int gv = v - v % stride, gu = u - u % stride;
+      float best = tol2;
+      std::uint16_t best_label = 0;
+      for (int dv = 0; dv <= stride; dv += stride) {
+        for (int du = 0; du <= stride; du += stride) {
+          const int sv = gv + dv, su = gu + du;
+          if (sv >= h || su >= w || sampled(sv, su) == 0) continue;
+          const float d2 =
+              (BackProject(camera, su, sv, scene.depth_filled_m(sv, su)) - p).squaredNorm();
+          if (d2 < best) {
+            best = d2;
+            best_label = sampled(sv, su);
+          }
+        }
+      }
+      labels(v, u) = best_label;
+    }
+  }
+}
+
+/// Clusters too small to keep become leftovers; clusters cut by the image border (the robot,
+/// a shelf, a bin wall that was not found) and clusters mostly beside the floor (sloped bin
+/// walls) become support.
+void DropClusters(const PclParams& params, double area_scale, int min_px, int cluster_count,
+                  const cv::Mat1b& floor_hull, cv::Mat1b& candidate, cv::Mat1w& labels) {
+  const int w = labels.cols, h = labels.rows;
+  std::vector<int> area(static_cast<std::size_t>(cluster_count) + 1, 0);
+  std::vector<int> border(static_cast<std::size_t>(cluster_count) + 1, 0);
+  std::vector<int> on_floor(static_cast<std::size_t>(cluster_count) + 1, 0);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      ++area[labels(v, u)];
+      if (u == 0 || v == 0 || u == w - 1 || v == h - 1) ++border[labels(v, u)];
+      if (floor_hull(v, u)) ++on_floor[labels(v, u)];
+    }
+  }
+  const int border_px =
+      std::max(1, static_cast<int>(std::lround(params.border_touch_px * std::sqrt(area_scale))));
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const std::uint16_t id = labels(v, u);
+      if (!id) continue;
+      if ((params.border_touch_px > 0 && border[id] >= border_px) ||
+          on_floor[id] < params.min_over_floor_fraction * area[id]) {
+        labels(v, u) = 0;
+        candidate(v, u) = 0;
+      } else if (area[id] < min_px) {
+        labels(v, u) = 0;
+      }
+    }
+  }
+}
+
+/// Step 4: leftovers: steep sides (whose pixels lie further apart than the tolerance), clusters
+/// too small to keep and unspread pixels join the adjacent instance they slope down from.
+void AttachLeftovers(const core::Scene& scene, const PclParams& params, double area_scale,
+                     const cv::Mat1b& candidate, cv::Mat1w& labels) {
+  const int w = labels.cols, h = labels.rows;
+  const int attach_px = std::max(
+      0, static_cast<int>(std::lround(params.attach_leftovers_px * std::sqrt(area_scale))));
+  if (attach_px <= 0) return;
+  std::vector<cv::Point> frontier, next;
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      if (labels(v, u)) frontier.emplace_back(u, v);
+    }
+  }
+  const std::array<cv::Point, 4> kSteps{cv::Point(1, 0), cv::Point(-1, 0), cv::Point(0, 1),
+                                        cv::Point(0, -1)};
+  const float climb_m = static_cast<float>(params.cluster_tolerance_m);
+  for (int ring = 0; ring < attach_px && !frontier.empty(); ++ring) {
+    next.clear();
+    for (const cv::Point& p : frontier) {
+      for (const cv::Point& step : kSteps) {
+        const cv::Point q = p + step;
+        if (q.x < 0 || q.y < 0 || q.x >= w || q.y >= h || !candidate(q) || labels(q)) continue;
+        if (scene.height_m(q) > scene.height_m(p) + climb_m) continue;
+        labels(q) = labels(p);
+        next.push_back(q);
+      }
+    }
+    frontier.swap(next);
+  }
+}
+
+/// Each cluster's InstanceScore, by label; clusters above max_px pixels are dropped from
+/// `labels` (and score 0).
+std::vector<double> ScoreClusters(int cluster_count, int min_px, int max_px, cv::Mat1w& labels) {
+  std::vector<std::vector<cv::Point>> pixels(static_cast<std::size_t>(cluster_count) + 1);
+  for (int v = 0; v < labels.rows; ++v) {
+    for (int u = 0; u < labels.cols; ++u) {
+      if (labels(v, u)) pixels[labels(v, u)].emplace_back(u, v);
+    }
+  }
+  std::vector<double> score(pixels.size(), 0.0);
+  for (std::size_t id = 1; id < pixels.size(); ++id) {
+    if (static_cast<int>(pixels[id].size()) > max_px) {
+      for (const cv::Point& p : pixels[id]) labels(p) = 0;
+      continue;
+    }
+    score[id] = InstanceScore(pixels[id], min_px);
+  }
+  return score;
+}
+
 }  // namespace
 
 double FloorMarginM(const core::Scene& scene, const PclParams& params) {
@@ -268,236 +536,41 @@ core::Result<InstanceMasks> SegmentPcl(const core::Scene& scene, const core::Cam
     return true;
   }();
   (void)quiet;
-  const cv::Size size(camera.width, camera.height);
-  if (scene.depth_filled_m.size() != size || scene.height_m.size() != size ||
-      (!scene.missing_mask.empty() && scene.missing_mask.size() != size)) {
-    return core::MakeError(core::ErrorCode::kInvalidArgument,
-                           "SegmentPcl: the scene is " + std::to_string(scene.height_m.cols) + "x" +
-                               std::to_string(scene.height_m.rows) + " but the camera " +
-                               std::to_string(camera.width) + "x" + std::to_string(camera.height));
-  }
-  if (requested.stride_px < 1 || requested.stride_px > 16 || !(requested.cluster_tolerance_m > 0) ||
-      requested.min_cluster_px < 1 || requested.max_cluster_px < requested.min_cluster_px ||
-      !(requested.min_height_m > 0) || !(requested.min_height_lowest_m > 0) ||
-      requested.min_height_lowest_m > requested.min_height_m ||
-      !(requested.floor_noise_sigmas >= 0)) {
-    return core::MakeError(core::ErrorCode::kInvalidArgument,
-                           "SegmentPcl: stride_px must be 1..16, cluster_tolerance_m > 0, "
-                           "1 <= min_cluster_px <= max_cluster_px, "
-                           "0 < min_height_lowest_m <= min_height_m, floor_noise_sigmas >= 0");
-  }
+  if (auto e = CheckInputs(scene, camera, requested)) return *e;
   // From here on min_height_m is this frame's floor margin.
   PclParams params = requested;
   params.min_height_m = FloorMarginM(scene, requested);
-  const int w = size.width, h = size.height;
-  const double area_scale = static_cast<double>(w) * h / kReferenceAreaPx;
+  const cv::Size size(camera.width, camera.height);
+  const double area_scale = static_cast<double>(size.width) * size.height / kReferenceAreaPx;
   const int min_px = ScalePx(params.min_cluster_px, area_scale);
   const int max_px = ScalePx(params.max_cluster_px, area_scale);
-  const int stride = params.stride_px;
-  const int stride2 = stride * stride;
 
   // 1. Candidates, sampled every `stride` pixels.
   cv::Mat1b candidate(size, static_cast<std::uint8_t>(0));
-  Samples samples;
-  for (int v = 0; v < h; ++v) {
-    const float* z = scene.depth_filled_m[v];
-    const float* height = scene.height_m[v];
-    const std::uint8_t* missing = scene.missing_mask.empty() ? nullptr : scene.missing_mask[v];
-    for (int u = 0; u < w; ++u) {
-      if ((missing && missing[u]) || !std::isfinite(z[u]) || !(z[u] > 0) ||
-          !(height[u] >= params.min_height_m)) {
-        continue;
-      }
-      candidate(v, u) = 255;
-      if (v % stride == 0 && u % stride == 0) {
-        const Eigen::Vector3f p = BackProject(camera, u, v, z[u]);
-        samples.cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
-        samples.pixel.emplace_back(u, v);
-      }
-    }
-  }
+  Samples samples = SampleCandidates(scene, camera, params, candidate);
 
   // 2. Support beyond the fitted floor: walls and rim, then a raised floor (a bin's bottom).
   MarkSteep(scene, camera, params, samples);
-  // A point inside the support, to orient the walls: the centroid of the fitted floor's pixels.
-  Eigen::Vector3d inside = Eigen::Vector3d::Zero();
-  int inside_count = 0;
-  for (int v = 0; v < h; v += 4) {
-    for (int u = 0; u < w; u += 4) {
-      if (std::abs(scene.height_m(v, u)) < params.min_height_m) {
-        inside += BackProject(camera, u, v, scene.depth_filled_m(v, u)).cast<double>();
-        ++inside_count;
-      }
-    }
-  }
+  const std::optional<Eigen::Vector3f> inside = PointInsideSupport(scene, camera, params);
   const std::vector<Wall> walls =
-      inside_count == 0
-          ? std::vector<Wall>{}
-          : FindWalls(scene, params, area_scale, samples, (inside / inside_count).cast<float>());
+      inside ? FindWalls(scene, params, area_scale, samples, *inside) : std::vector<Wall>{};
   const double floor_height_m =
       RaisedFloorHeight(scene, params, area_scale, samples, walls).value_or(0.0);
-  cv::Mat1b floor_px(size, static_cast<std::uint8_t>(0));  // the support's floor, measured
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; ++u) {
-      const float height = scene.height_m(v, u);
-      const bool missing = !scene.missing_mask.empty() && scene.missing_mask(v, u);
-      if (!missing && std::abs(height - floor_height_m) < params.min_height_m) floor_px(v, u) = 255;
-      if (!candidate(v, u)) continue;
-      bool support = height < floor_height_m + params.min_height_m;
-      if (!support && !walls.empty()) {
-        const Eigen::Vector3f p = BackProject(camera, u, v, scene.depth_filled_m(v, u));
-        for (std::size_t k = 0; k < walls.size() && !support; ++k) {
-          support = walls[k].Covers(p, params);
-        }
-      }
-      if (support) candidate(v, u) = 0;
-    }
-  }
-  // Where the floor spans in the image (its convex hull): objects stand on it, walls outside.
-  cv::Mat1b floor_hull(size, static_cast<std::uint8_t>(0));
-  {
-    cv::Mat1b opened;
-    cv::morphologyEx(floor_px, opened, cv::MORPH_OPEN,
-                     cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
-    std::vector<cv::Point> points, hull;
-    cv::findNonZero(opened, points);
-    if (points.size() >= 3) {
-      cv::convexHull(points, hull);
-      cv::fillConvexPoly(floor_hull, hull, cv::Scalar(255));
-    }
-  }
-  pcl::IndicesPtr kept(new pcl::Indices);
-  for (std::size_t i = 0; i < samples.pixel.size(); ++i) {
-    if (candidate(samples.pixel[i])) kept->push_back(static_cast<pcl::index_t>(i));
-  }
+  const cv::Mat1b floor_hull =
+      FloorHull(RemoveSupport(scene, camera, params, walls, floor_height_m, candidate));
 
-  // 3. Euclidean clusters of the kept samples.
+  // 3. Euclidean clusters of the samples left, spread to the skipped pixels, then those that are
+  // support or too small dropped.
   cv::Mat1w labels(size, static_cast<std::uint16_t>(0));
-  std::vector<pcl::PointIndices> clusters;
-  if (!kept->empty()) {
-    pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
-    tree->setInputCloud(samples.cloud, kept);
-    pcl::EuclideanClusterExtraction<pcl::PointXYZ> ec;
-    ec.setClusterTolerance(params.cluster_tolerance_m);
-    // Loose bounds here; the pixel counts are checked after spreading.
-    ec.setMinClusterSize(std::max(1, min_px / stride2 / 2));
-    ec.setMaxClusterSize(std::max(1, max_px / stride2 * 2));
-    ec.setSearchMethod(tree);
-    ec.setInputCloud(samples.cloud);
-    ec.setIndices(kept);
-    ec.extract(clusters);
-  }
-  const int cluster_count =
-      std::min<int>(static_cast<int>(clusters.size()), std::numeric_limits<std::uint16_t>::max());
-  for (int c = 0; c < cluster_count; ++c) {
-    for (const auto idx : clusters[static_cast<std::size_t>(c)].indices) {
-      labels(samples.pixel[static_cast<std::size_t>(idx)]) = static_cast<std::uint16_t>(c + 1);
-    }
-  }
+  const int cluster_count = ClusterSamples(samples, candidate, params, min_px, max_px, labels);
+  SpreadLabels(scene, camera, params, candidate, labels);
+  DropClusters(params, area_scale, min_px, cluster_count, floor_hull, candidate, labels);
 
-  // Spread labels from the samples to the skipped candidate pixels: the nearest (in C) labelled
-  // sample among the four grid corners around the pixel, within the cluster tolerance.
-  if (stride > 1) {
-    const cv::Mat1w sampled = labels.clone();
-    const float tol2 = static_cast<float>(params.cluster_tolerance_m * params.cluster_tolerance_m) *
-                       static_cast<float>(stride2);
-    for (int v = 0; v < h; ++v) {
-      for (int u = 0; u < w; ++u) {
-        if (!candidate(v, u) || (v % stride == 0 && u % stride == 0)) continue;
-        const Eigen::Vector3f p = BackProject(camera, u, v, scene.depth_filled_m(v, u));
-        const int gv = v - v % stride, gu = u - u % stride;
-        float best = tol2;
-        std::uint16_t best_label = 0;
-        for (int dv = 0; dv <= stride; dv += stride) {
-          for (int du = 0; du <= stride; du += stride) {
-            const int sv = gv + dv, su = gu + du;
-            if (sv >= h || su >= w || sampled(sv, su) == 0) continue;
-            const float d2 =
-                (BackProject(camera, su, sv, scene.depth_filled_m(sv, su)) - p).squaredNorm();
-            if (d2 < best) {
-              best = d2;
-              best_label = sampled(sv, su);
-            }
-          }
-        }
-        labels(v, u) = best_label;
-      }
-    }
-  }
-
-  // Clusters too small to keep become leftovers; clusters cut by the image border (the robot,
-  // a shelf, a bin wall that was not found) and clusters mostly beside the floor (sloped bin
-  // walls) become support.
-  std::vector<int> area(static_cast<std::size_t>(cluster_count) + 1, 0);
-  std::vector<int> border(static_cast<std::size_t>(cluster_count) + 1, 0);
-  std::vector<int> on_floor(static_cast<std::size_t>(cluster_count) + 1, 0);
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; ++u) {
-      ++area[labels(v, u)];
-      if (u == 0 || v == 0 || u == w - 1 || v == h - 1) ++border[labels(v, u)];
-      if (floor_hull(v, u)) ++on_floor[labels(v, u)];
-    }
-  }
-  const int border_px =
-      std::max(1, static_cast<int>(std::lround(params.border_touch_px * std::sqrt(area_scale))));
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; ++u) {
-      const std::uint16_t id = labels(v, u);
-      if (!id) continue;
-      if ((params.border_touch_px > 0 && border[id] >= border_px) ||
-          on_floor[id] < params.min_over_floor_fraction * area[id]) {
-        labels(v, u) = 0;
-        candidate(v, u) = 0;
-      } else if (area[id] < min_px) {
-        labels(v, u) = 0;
-      }
-    }
-  }
-
-  // 4. Leftovers: steep sides (whose pixels lie further apart than the tolerance), clusters too
-  // small to keep and unspread pixels join the adjacent instance they slope down from.
-  const int attach_px = std::max(
-      0, static_cast<int>(std::lround(params.attach_leftovers_px * std::sqrt(area_scale))));
-  if (attach_px > 0) {
-    std::vector<cv::Point> frontier, next;
-    for (int v = 0; v < h; ++v) {
-      for (int u = 0; u < w; ++u) {
-        if (labels(v, u)) frontier.emplace_back(u, v);
-      }
-    }
-    const std::array<cv::Point, 4> kSteps{cv::Point(1, 0), cv::Point(-1, 0), cv::Point(0, 1),
-                                          cv::Point(0, -1)};
-    const float climb_m = static_cast<float>(params.cluster_tolerance_m);
-    for (int ring = 0; ring < attach_px && !frontier.empty(); ++ring) {
-      next.clear();
-      for (const cv::Point& p : frontier) {
-        for (const cv::Point& step : kSteps) {
-          const cv::Point q = p + step;
-          if (q.x < 0 || q.y < 0 || q.x >= w || q.y >= h || !candidate(q) || labels(q)) continue;
-          if (scene.height_m(q) > scene.height_m(p) + climb_m) continue;
-          labels(q) = labels(p);
-          next.push_back(q);
-        }
-      }
-      frontier.swap(next);
-    }
-  }
+  // 4. Leftovers join the adjacent instance they slope down from.
+  AttachLeftovers(scene, params, area_scale, candidate, labels);
 
   // Scores, then dense ids by decreasing score; clusters outside the size range are dropped.
-  std::vector<std::vector<cv::Point>> pixels(static_cast<std::size_t>(cluster_count) + 1);
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; ++u) {
-      if (labels(v, u)) pixels[labels(v, u)].emplace_back(u, v);
-    }
-  }
-  std::vector<double> score(pixels.size(), 0.0);
-  for (std::size_t id = 1; id < pixels.size(); ++id) {
-    if (static_cast<int>(pixels[id].size()) > max_px) {
-      for (const cv::Point& p : pixels[id]) labels(p) = 0;
-      continue;
-    }
-    score[id] = InstanceScore(pixels[id], min_px);
-  }
+  const std::vector<double> score = ScoreClusters(cluster_count, min_px, max_px, labels);
   return Compact(labels, min_px,
                  [&](int old_id) { return score[static_cast<std::size_t>(old_id)]; });
 }
