@@ -127,7 +127,7 @@ json Overlays(const Models& models) {
   return out;
 }
 
-http::Response Info(const config::ServiceConfig& config, bool robot_running, const Models& models) {
+json InfoJson(const config::ServiceConfig& config, bool robot_running, const Models& models) {
   const bool segmentation = models.segmentation != nullptr;
   const auto& limits = config.server.limits;
   json body = {
@@ -172,7 +172,11 @@ http::Response Info(const config::ServiceConfig& config, bool robot_running, con
   };
   body["defaults"].update(codec::ToJson(config.fge));
   body["defaults"].update(StrategyDefaultsJson());
-  return http::Response::Json(200, body.dump());
+  return body;
+}
+
+http::Response Info(const config::ServiceConfig& config, bool robot_running, const Models& models) {
+  return http::Response::Json(200, InfoJson(config, robot_running, models).dump());
 }
 
 http::Response PngResponse(const cv::Mat& image, std::size_t grasp_count) {
@@ -245,6 +249,31 @@ json GraspsToJson(const GraspRequest& in, const engine::Plan& plan, const Models
   return body;
 }
 
+// A picture shows no instance ids and no mean stiffness; it shows the overlay's map.
+void AskForWhatTheAnswerShows(GraspRequest* in) {
+  const bool png = in->output == OutputFormat::kPng;
+  in->plan.report_instances = in->plan.report_instances && !png;
+  in->plan.mean_stiffness = in->plan.mean_stiffness && !png;
+  in->plan.want_stiffness_map = png && in->overlay == OverlayBackground::kStiffness;
+  in->plan.want_deformability_map = in->overlay == OverlayBackground::kDeformability;
+  in->plan.plan = !png || in->draw_grasps;
+}
+
+core::Error TargetPixelNotFound(const engine::PlanOptions& plan) {
+  return core::MakeError(core::ErrorCode::kUnprocessable,
+                         "target_px (" + std::to_string(plan.target_px->x) + ", " +
+                             std::to_string(plan.target_px->y) +
+                             ") is on no object of the segmentation",
+                         "target_px");
+}
+
+// The PNG answer: the grasps drawn over the overlay's picture.
+http::Response GraspsPicture(const GraspRequest& in, const engine::Plan& plan) {
+  std::vector<core::Grasp> grasps;
+  for (const auto& g : plan.grasps) grasps.push_back(g.grasp);
+  return PngResponse(io::DrawGrasps(OverlayPicture(in, plan), grasps), grasps.size());
+}
+
 http::Response Grasps(const http::Request& request, const config::ServiceConfig& config,
                       const Models& models) {
   const auto start = Clock::now();
@@ -257,27 +286,12 @@ http::Response Grasps(const http::Request& request, const config::ServiceConfig&
     // The picture alone needs no planning; the client asks for the grasps separately.
     return PngResponse(io::ColorizeDepth(in.upload.depth), 0);
   }
-  // A picture shows no instance ids and no mean stiffness; it shows the overlay's map.
-  in.plan.report_instances = in.plan.report_instances && !png;
-  in.plan.mean_stiffness = in.plan.mean_stiffness && !png;
-  in.plan.want_stiffness_map = png && in.overlay == OverlayBackground::kStiffness;
-  in.plan.want_deformability_map = in.overlay == OverlayBackground::kDeformability;
-  in.plan.plan = !png || in.draw_grasps;
+  AskForWhatTheAnswerShows(&in);
   auto planned = engine::PlanGrasps(in.upload.depth, in.upload.camera, in.plan, models);
   if (!planned.ok()) return ErrorToResponse(planned.error());
   const engine::Plan& plan = planned.value();
-  if (plan.target_not_found) {
-    return ErrorToResponse(core::MakeError(core::ErrorCode::kUnprocessable,
-                                           "target_px (" + std::to_string(in.plan.target_px->x) +
-                                               ", " + std::to_string(in.plan.target_px->y) +
-                                               ") is on no object of the segmentation",
-                                           "target_px"));
-  }
-  if (png) {
-    std::vector<core::Grasp> grasps;
-    for (const auto& g : plan.grasps) grasps.push_back(g.grasp);
-    return PngResponse(io::DrawGrasps(OverlayPicture(in, plan), grasps), grasps.size());
-  }
+  if (plan.target_not_found) return ErrorToResponse(TargetPixelNotFound(in.plan));
+  if (png) return GraspsPicture(in, plan);
   return http::Response::Json(
       200, GraspsToJson(in, plan, models, decode_ms, MillisecondsSince(start)).dump());
 }
@@ -370,6 +384,31 @@ json SegmentationToJson(const SegmentationRequest& in, const engine::Segmentatio
   };
 }
 
+// The segmentation's answer in the requested format (the headers come after).
+http::Response SegmentationAnswer(const SegmentationRequest& in, const engine::Segmentation& found,
+                                  const Models& models, double decode_ms, double total_ms) {
+  const segmentation::InstanceMasks& masks = found.instances.masks;
+  switch (in.format) {
+    case SegmentationFormat::kLabels:
+      return http::Response::Bytes(200, "image/png", io::EncodePng(masks.labels));
+    case SegmentationFormat::kOverlay:
+      return http::Response::Bytes(
+          200, "image/png",
+          io::EncodePng(io::DrawInstances(io::ColorizeDepth(in.upload.depth), masks.labels)));
+    case SegmentationFormat::kDeformability: {
+      const cv::Mat1b objects = masks.labels > 0;
+      return EncodeMap(found.instances.deformability, in.encoding,
+                       [&objects](const cv::Mat1f& values) {
+                         return io::ColorizeDeformability(values, objects);
+                       });
+    }
+    case SegmentationFormat::kJson:
+      return http::Response::Json(
+          200, SegmentationToJson(in, found, models, decode_ms, total_ms).dump());
+  }
+  return http::Response::Json(500, "{}");  // not reached: every format is handled
+}
+
 // POST /v1/segmentation: object instances of the uploaded depth (docs/segmentation.md).
 http::Response Segmentation(const http::Request& request, const config::ServiceConfig& config,
                             const Models& models) {
@@ -392,29 +431,7 @@ http::Response Segmentation(const http::Request& request, const config::ServiceC
   const engine::Segmentation& found = segmented.value();
   const segmentation::InstanceMasks& masks = found.instances.masks;
 
-  http::Response out;
-  switch (in.format) {
-    case SegmentationFormat::kLabels:
-      out = http::Response::Bytes(200, "image/png", io::EncodePng(masks.labels));
-      break;
-    case SegmentationFormat::kOverlay:
-      out = http::Response::Bytes(
-          200, "image/png",
-          io::EncodePng(io::DrawInstances(io::ColorizeDepth(in.upload.depth), masks.labels)));
-      break;
-    case SegmentationFormat::kDeformability: {
-      const cv::Mat1b objects = masks.labels > 0;
-      out = EncodeMap(found.instances.deformability, in.encoding,
-                      [&objects](const cv::Mat1f& values) {
-                        return io::ColorizeDeformability(values, objects);
-                      });
-      break;
-    }
-    case SegmentationFormat::kJson:
-      out = http::Response::Json(
-          200, SegmentationToJson(in, found, models, decode_ms, MillisecondsSince(start)).dump());
-      break;
-  }
+  http::Response out = SegmentationAnswer(in, found, models, decode_ms, MillisecondsSince(start));
   out.set_header("X-Instance-Count", std::to_string(masks.count()));
   out.set_header("X-Segmentation-Method", segmentation::MethodName(found.instances.method));
   out.set_header("Server-Timing", "preprocess;dur=" + std::to_string(found.timing.preprocess_ms) +
