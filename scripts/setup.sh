@@ -36,6 +36,8 @@ if [ "$profile" = all ]; then
     libgtest-dev libgmock-dev libbenchmark-dev chromium
     # the two-host test (tests/netns): network namespaces and veth pairs, HTTP and JSON in bash
     iproute2 jq
+    # the layering test (tests/layout_test.py)
+    python3
     # the HTTP benchmark (scripts/bench-http.sh): nginx as the baseline, wrk as the load
     nginx-light wrk
     # container images (scripts/images.sh: a Debian base by debootstrap, images by buildah) and
