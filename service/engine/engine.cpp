@@ -75,13 +75,6 @@ bool Serves(const Models& models, const Strategy& strategy) {
          (!info.needs_gqcnn_model || models.gqcnn);
 }
 
-std::optional<core::Error> Unserved(const Models& models, std::string_view name) {
-  auto strategy = StrategyNamed(name);
-  if (!strategy.ok()) return strategy.error();
-  if (Serves(models, *strategy.value())) return std::nullopt;
-  return Missing(models, strategy.value()->info());
-}
-
 const Strategy& DefaultStrategy(const Models& models) {
   const Strategy* last = Strategies().front();
   for (const Strategy* s : Strategies()) {

@@ -33,9 +33,6 @@ const Strategy* FindStrategy(std::string_view name);
 core::Result<const Strategy*> StrategyNamed(std::string_view name);
 /// Whether `models` has what `strategy` needs.
 bool Serves(const Models& models, const Strategy& strategy);
-/// Why `models` cannot serve the strategy of this name (kInvalidArgument, field "strategy": what
-/// is missing and which strategies are served); nullopt when they can.
-std::optional<core::Error> Unserved(const Models& models, std::string_view name);
 /// The last strategy the loaded models serve.
 const Strategy& DefaultStrategy(const Models& models);
 /// The names of the strategies `models` serve, in Strategies() order.

@@ -141,13 +141,16 @@ TEST(Strategies, TheDefaultIsTheLastOneTheLoadedModelsServe) {
   EXPECT_STREQ(DefaultStrategy(stiffness).info().name, "stiffness");
   EXPECT_TRUE(Serves(stiffness, *FindStrategy("stiffness")));
   EXPECT_FALSE(Serves(stiffness, *FindStrategy("deformability")));
-  const auto why = Unserved(stiffness, "deformability");
-  ASSERT_TRUE(why.has_value());
-  EXPECT_EQ(why->code, core::ErrorCode::kInvalidArgument);
-  EXPECT_EQ(why->field, "strategy");
-  EXPECT_NE(why->message.find("segmentation model"), std::string::npos) << why->message;
-  EXPECT_NE(why->message.find("'fge' or 'stiffness'"), std::string::npos) << why->message;
-  EXPECT_FALSE(Unserved(stiffness, "fge").has_value());
+  PlanOptions unserved;
+  unserved.strategy = "deformability";
+  const auto why = PlanGrasps(Scene().synth.depth, Scene().synth.camera, unserved, stiffness);
+  ASSERT_FALSE(why.ok());
+  EXPECT_EQ(why.error().code, core::ErrorCode::kInvalidArgument);
+  EXPECT_EQ(why.error().field, "strategy");
+  EXPECT_NE(why.error().message.find("segmentation model"), std::string::npos)
+      << why.error().message;
+  EXPECT_NE(why.error().message.find("'fge' or 'stiffness'"), std::string::npos)
+      << why.error().message;
 }
 
 TEST(PlanGrasps, FgeIsTheCorePlannerOnThePreprocessedScene) {
