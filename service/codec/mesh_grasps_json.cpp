@@ -82,9 +82,17 @@ json ToJsonWithoutTiming(const mesh::MeshGraspAnalysis& analysis) {
                        g.robust_ferrari_canny ? json(*g.robust_ferrari_canny) : json(nullptr)},
                       {"poses", std::move(in_poses)}});
   }
+  json no_grasp;  // null when some grasp is usable
+  if (const auto& why = analysis.no_grasp) {
+    no_grasp = {{"reason", mesh::NoGraspReasonName(why->reason)},
+                {"message", why->message},
+                {"narrowest_width_m", why->narrowest_width_m},
+                {"needed_stroke_m", why->needed_stroke_m ? json(*why->needed_stroke_m) : json()}};
+  }
   return {{"center_of_mass_m", Vec(analysis.center_of_mass_m)},
           {"stable_poses", std::move(poses)},
-          {"grasps", std::move(grasps)}};
+          {"grasps", std::move(grasps)},
+          {"no_grasp", std::move(no_grasp)}};
 }
 
 json ToJson(const mesh::MeshGraspAnalysis& analysis) {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <numbers>
 #include <string>
 #include <utility>
@@ -69,7 +71,149 @@ GraspInPose CheckInPose(const GripperCollisionChecker& checker, const JawGrasp& 
   return out;
 }
 
+// The extent of `points` along the unit direction `d`.
+double WidthAlong(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& d) {
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -lo;
+  for (const Eigen::Vector3d& p : points) {
+    const double t = p.dot(d);
+    lo = std::min(lo, t);
+    hi = std::max(hi, t);
+  }
+  return hi - lo;
+}
+
+// Pattern search on the sphere from `d`: tilts of `step` about two axes across it, the step
+// halved when none narrows the width, down to 1e-5 rad.
+double RefinedWidth(const std::vector<Eigen::Vector3d>& points, Eigen::Vector3d d) {
+  double best = WidthAlong(points, d);
+  for (double step = 0.05; step > 1e-5;) {
+    const Eigen::Vector3d u = d.unitOrthogonal();
+    const Eigen::Vector3d v = d.cross(u);
+    bool improved = false;
+    for (const Eigen::Vector3d& tilt : {u, Eigen::Vector3d(-u), v, Eigen::Vector3d(-v)}) {
+      const Eigen::Vector3d candidate = (d + step * tilt).normalized();
+      const double w = WidthAlong(points, candidate);
+      if (w < best) {
+        best = w;
+        d = candidate;
+        improved = true;
+        break;
+      }
+    }
+    if (!improved) step /= 2;
+  }
+  return best;
+}
+
+std::string Mm(double metres) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f mm", metres * 1000.0);
+  return text;
+}
+
+bool Usable(const AnalysedGrasp& g) {
+  for (const GraspInPose& p : g.poses) {
+    if (p.aligned && p.collision_free) return true;
+  }
+  return false;
+}
+
 }  // namespace
+
+const char* NoGraspReasonName(NoGraspReason reason) {
+  switch (reason) {
+    case NoGraspReason::kWiderThanStroke:
+      return "wider_than_stroke";
+    case NoGraspReason::kNoAntipodalPair:
+      return "no_antipodal_pair";
+    case NoGraspReason::kNoForceClosure:
+      return "no_force_closure";
+    case NoGraspReason::kCollidesInEveryPose:
+      return "collides_in_every_pose";
+  }
+  return "wider_than_stroke";
+}
+
+double NarrowestWidthM(const TriangleMesh& mesh) {
+  std::vector<Eigen::Vector3d> points;
+  points.reserve(mesh.vertices.size());
+  for (const auto& v : mesh.vertices) points.emplace_back(v[0], v[1], v[2]);
+  if (points.empty()) return 0.0;
+  // Directions over a hemisphere (a width is the same both ways), Fibonacci-spaced, and the
+  // faces' normals (a box is narrowest across a face); the narrowest few are refined.
+  constexpr int kDirections = 1024;
+  std::vector<std::pair<double, Eigen::Vector3d>> tried;
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < kDirections; ++i) {
+    const double z = (i + 0.5) / kDirections;
+    const double r = std::sqrt(1.0 - z * z);
+    const Eigen::Vector3d d(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    tried.emplace_back(WidthAlong(points, d), d);
+  }
+  // Up to 512 faces' normals, spread over the face list.
+  const std::size_t stride = std::max<std::size_t>(1, mesh.faces.size() / 512);
+  for (std::size_t i = 0; i < mesh.faces.size(); i += stride) {
+    const auto& f = mesh.faces[i];
+    const Eigen::Vector3d& a = points[static_cast<std::size_t>(f[0])];
+    const Eigen::Vector3d n = (points[static_cast<std::size_t>(f[1])] - a)
+                                  .cross(points[static_cast<std::size_t>(f[2])] - a);
+    if (n.norm() > 0) tried.emplace_back(WidthAlong(points, n.normalized()), n.normalized());
+  }
+  constexpr std::size_t kRefined = 8;
+  const std::size_t refined = std::min(kRefined, tried.size());
+  std::partial_sort(tried.begin(), tried.begin() + static_cast<std::ptrdiff_t>(refined),
+                    tried.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  double best = tried.front().first;
+  for (std::size_t i = 0; i < refined; ++i) {
+    best = std::min(best, RefinedWidth(points, tried[i].second));
+  }
+  return best;
+}
+
+std::optional<NoGrasp> WhyNoGrasp(const TriangleMesh& mesh, const MeshGraspAnalysis& analysis,
+                                  const MeshGraspOptions& options) {
+  if (std::any_of(analysis.grasps.begin(), analysis.grasps.end(),
+                  [](const AnalysedGrasp& g) { return g.ferrari_canny > 0.0 && Usable(g); })) {
+    return std::nullopt;
+  }
+  NoGrasp out;
+  out.narrowest_width_m = NarrowestWidthM(mesh);
+  const double stroke = options.gripper.opening_m;
+  if (out.narrowest_width_m > stroke) {
+    out.needed_stroke_m = std::ceil(out.narrowest_width_m * 1000.0 - 1e-9) / 1000.0;
+  }
+  if (analysis.grasps.empty() && out.needed_stroke_m) {
+    out.reason = NoGraspReason::kWiderThanStroke;
+    out.message = "the object is " + Mm(out.narrowest_width_m) +
+                  " at its narrowest, wider than the " + Mm(stroke) +
+                  " stroke in every direction: it needs a stroke of at least " +
+                  Mm(*out.needed_stroke_m);
+  } else if (analysis.grasps.empty()) {
+    out.reason = NoGraspReason::kNoAntipodalPair;
+    out.message = "no two surface points within the " + Mm(stroke) +
+                  " stroke face each other inside the friction cone at friction_coefficient " +
+                  std::to_string(options.friction_coefficient).substr(0, 5) + " (the object is " +
+                  Mm(out.narrowest_width_m) + " at its narrowest)";
+  } else if (std::none_of(analysis.grasps.begin(), analysis.grasps.end(),
+                          [](const AnalysedGrasp& g) { return g.ferrari_canny > 0.0; })) {
+    out.reason = NoGraspReason::kNoForceClosure;
+    out.message = "none of the " + std::to_string(analysis.grasps.size()) +
+                  " antipodal grasps is in force closure at friction_coefficient " +
+                  std::to_string(options.friction_coefficient).substr(0, 5);
+  } else {
+    out.reason = NoGraspReason::kCollidesInEveryPose;
+    out.message = "in each of the " + std::to_string(analysis.poses.size()) +
+                  " stable poses every grasp in force closure is either not approachable from "
+                  "above or collides with the table or the gripper's body on the way in";
+  }
+  if (out.needed_stroke_m && out.reason != NoGraspReason::kWiderThanStroke) {
+    // Grasps were found on edges or corners, but the object's body is wider than the stroke.
+    out.message += "; the object is " + Mm(out.narrowest_width_m) + " at its narrowest, and a " +
+                   Mm(*out.needed_stroke_m) + " stroke would fit it";
+  }
+  return out;
+}
 
 core::Result<MeshGraspAnalysis> AnalyseMeshGrasps(const TriangleMesh& mesh_o,
                                                   const MeshGraspOptions& options) {
@@ -155,6 +299,7 @@ core::Result<MeshGraspAnalysis> AnalyseMeshGrasps(const TriangleMesh& mesh_o,
                      return a.robust_ferrari_canny.value_or(a.ferrari_canny) >
                             b.robust_ferrari_canny.value_or(b.ferrari_canny);
                    });
+  analysis.no_grasp = WhyNoGrasp(mesh_o, analysis, options);
   analysis.timing.total_ms = MsSince(start);
   return analysis;
 }

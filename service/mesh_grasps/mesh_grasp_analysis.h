@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -78,13 +79,51 @@ struct MeshGraspTiming {
   double total_ms = 0.0;
 };
 
+/// Why an analysis has no grasp the gripper can use, checked in this order.
+enum class NoGraspReason {
+  /// The object is wider than the stroke in every direction: no two surface points the open jaws
+  /// can reach face each other.
+  kWiderThanStroke,
+  /// It fits the stroke, but no two surface points within it face each other inside the friction
+  /// cone (a higher friction_coefficient or another stroke may find some).
+  kNoAntipodalPair,
+  /// Antipodal grasps exist, but none is in force closure at this friction (quality 0).
+  kNoForceClosure,
+  /// Grasps in force closure exist, but in every stable pose each is either not approachable
+  /// from above or collides with the table or the gripper's body on the way in.
+  kCollidesInEveryPose,
+};
+const char* NoGraspReasonName(NoGraspReason reason);  ///< "wider_than_stroke", ...
+
+struct NoGrasp {
+  NoGraspReason reason = NoGraspReason::kWiderThanStroke;
+  std::string message;  ///< says what was found and what would help
+  /// The object's narrowest width over all directions (its vertices' extent), metres.
+  double narrowest_width_m = 0.0;
+  /// When the narrowest width exceeds the stroke (always for kWiderThanStroke): the stroke it
+  /// needs, rounded up to the millimetre.
+  std::optional<double> needed_stroke_m;
+};
+
 struct MeshGraspAnalysis {
   Eigen::Vector3d center_of_mass_m = Eigen::Vector3d::Zero();  ///< volume centroid, O
   std::vector<StablePose> poses;                               ///< most probable first
   /// Best first: by robust quality when computed (else nominal), ties in sampling order.
   std::vector<AnalysedGrasp> grasps;
+  /// Set when no grasp is usable: none sampled, none in force closure, or none aligned and free
+  /// of collisions in any stable pose.
+  std::optional<NoGrasp> no_grasp;
   MeshGraspTiming timing;
 };
+
+/// The narrowest width of the mesh's vertices over all directions: the least extent
+/// max(v . d) - min(v . d), searched from dense directions and refined locally (to about 1e-5 rad).
+double NarrowestWidthM(const TriangleMesh& mesh);
+
+/// Why `analysis` (its grasps analysed in its poses with `options`) has no usable grasp; nullopt
+/// when some grasp is in force closure, aligned and free of collisions in some pose.
+std::optional<NoGrasp> WhyNoGrasp(const TriangleMesh& mesh, const MeshGraspAnalysis& analysis,
+                                  const MeshGraspOptions& options);
 
 /// Analyses a closed, outward-oriented mesh (check it first, e.g. with PrepareMesh). Errors:
 /// kInvalidArgument naming the option out of range; kUnprocessable when the mesh has no stable

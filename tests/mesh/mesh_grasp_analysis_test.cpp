@@ -187,3 +187,86 @@ TEST(MeshGraspAnalysisTest, BarClampGraspsOnTheBarAndHandleRankAboveTheJawTips) 
 
 }  // namespace
 }  // namespace softgrasp::mesh
+
+namespace softgrasp::mesh {
+namespace {
+
+// A cracker box, 72 x 160 x 210 mm: with the default 50 mm stroke no grasp, and the answer says
+// it is wider than the stroke in every direction and needs 72 mm; with an 85 mm stroke it has
+// grasps and no reason.
+TEST(MeshGraspAnalysisNoGraspTest, ABoxWiderThanTheStrokeSaysWhatStrokeItNeeds) {
+  const TriangleMesh box = testing::CentredBoxMesh({0.036, 0.080, 0.105});
+  MeshGraspOptions options = SmallRun();
+  const MeshGraspAnalysis narrow = Analyse(box, options);
+  EXPECT_TRUE(narrow.grasps.empty());
+  ASSERT_TRUE(narrow.no_grasp.has_value());
+  EXPECT_EQ(narrow.no_grasp->reason, NoGraspReason::kWiderThanStroke);
+  EXPECT_NEAR(narrow.no_grasp->narrowest_width_m, 0.072, 1e-6);
+  ASSERT_TRUE(narrow.no_grasp->needed_stroke_m.has_value());
+  EXPECT_NEAR(*narrow.no_grasp->needed_stroke_m, 0.072, 1e-9);
+  EXPECT_NE(narrow.no_grasp->message.find("72.0 mm"), std::string::npos)
+      << narrow.no_grasp->message;
+  const nlohmann::json j = codec::ToJson(narrow);
+  EXPECT_EQ(j["no_grasp"]["reason"], "wider_than_stroke");
+  EXPECT_NEAR(j["no_grasp"]["needed_stroke_m"].get<double>(), 0.072, 1e-9);
+
+  options.gripper.opening_m = 0.085;
+  const MeshGraspAnalysis wide = Analyse(box, options);
+  EXPECT_FALSE(wide.grasps.empty());
+  EXPECT_FALSE(wide.no_grasp.has_value());
+  EXPECT_TRUE(codec::ToJson(wide)["no_grasp"].is_null());
+}
+
+// A box turned by an arbitrary rotation is as narrow as before: the search is not tied to the
+// axes.
+TEST(MeshGraspAnalysisNoGraspTest, NarrowestWidthOfARotatedBoxIsItsThinnestSide) {
+  TriangleMesh box = testing::CentredBoxMesh({0.036, 0.080, 0.105});
+  const Eigen::Matrix3d r = (Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()) *
+                             Eigen::AngleAxisd(-1.1, Eigen::Vector3d(-2, 0.5, 1).normalized()))
+                                .toRotationMatrix();
+  for (auto& v : box.vertices) {
+    const Eigen::Vector3d p = r * Eigen::Vector3d(v[0], v[1], v[2]);
+    v = {p.x(), p.y(), p.z()};
+  }
+  EXPECT_NEAR(NarrowestWidthM(box), 0.072, 1e-6);
+  // A regular tetrahedron of edge a is narrowest between opposite edges: a / sqrt(2).
+  const double a = 0.04;
+  TriangleMesh tetra;
+  tetra.vertices = {{0, 0, 0},
+                    {a, 0, 0},
+                    {a / 2, a * std::sqrt(3.0) / 2, 0},
+                    {a / 2, a * std::sqrt(3.0) / 6, a * std::sqrt(2.0 / 3.0)}};
+  tetra.faces = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {2, 0, 3}};
+  EXPECT_NEAR(NarrowestWidthM(tetra), a / std::sqrt(2.0), 1e-6);
+}
+
+// What is not sampled is classified by what the grasps show: none in force closure, or none
+// usable (aligned and free) in any pose.
+TEST(MeshGraspAnalysisNoGraspTest, GraspsWithoutClosureOrWithoutAFreePoseSayWhy) {
+  const TriangleMesh cube = testing::CentredBoxMesh({0.02, 0.02, 0.02});
+  MeshGraspAnalysis analysis = Analyse(cube, SmallRun());
+  ASSERT_FALSE(analysis.grasps.empty());
+  EXPECT_FALSE(WhyNoGrasp(cube, analysis, SmallRun()).has_value());
+  MeshGraspAnalysis blocked = analysis;
+  for (AnalysedGrasp& g : blocked.grasps) {
+    for (GraspInPose& p : g.poses) p.collision_free = false;
+  }
+  auto why = WhyNoGrasp(cube, blocked, SmallRun());
+  ASSERT_TRUE(why.has_value());
+  EXPECT_EQ(why->reason, NoGraspReason::kCollidesInEveryPose);
+  EXPECT_FALSE(why->needed_stroke_m.has_value());
+  MeshGraspAnalysis slipping = analysis;
+  for (AnalysedGrasp& g : slipping.grasps) g.ferrari_canny = 0.0;
+  why = WhyNoGrasp(cube, slipping, SmallRun());
+  ASSERT_TRUE(why.has_value());
+  EXPECT_EQ(why->reason, NoGraspReason::kNoForceClosure);
+  MeshGraspAnalysis none = analysis;
+  none.grasps.clear();
+  why = WhyNoGrasp(cube, none, SmallRun());
+  ASSERT_TRUE(why.has_value());
+  EXPECT_EQ(why->reason, NoGraspReason::kNoAntipodalPair);  // 40 mm fits the 50 mm stroke
+  EXPECT_NEAR(why->narrowest_width_m, 0.04, 1e-6);
+}
+
+}  // namespace
+}  // namespace softgrasp::mesh

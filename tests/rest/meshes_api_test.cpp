@@ -86,6 +86,25 @@ TEST_F(MeshesApiTest, BarClampAnswersPosesAndRankedGraspsWithPerPoseFlags) {
   EXPECT_EQ(first, again);
 }
 
+// A cracker box 72 mm at its thinnest, with the default 50 mm stroke: 200 with no grasp, and the
+// answer says why and what stroke it needs; the default stroke's answer for a 40 mm cube has none.
+TEST_F(MeshesApiTest, ABoxWiderThanTheStrokeSaysWhyThereIsNoGrasp) {
+  const std::string box = mesh::WriteMesh(softgrasp::testing::CentredBoxMesh({0.036, 0.080, 0.105}),
+                                          mesh::MeshFormat::kObj);
+  const auto reply = Post("?num_grasps=20&robust_samples=0", box);
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  const json body = json::parse(reply.body);
+  EXPECT_TRUE(body["grasps"].empty());
+  ASSERT_TRUE(body["no_grasp"].is_object()) << body.dump();
+  EXPECT_EQ(body["no_grasp"]["reason"], "wider_than_stroke");
+  EXPECT_NEAR(body["no_grasp"]["narrowest_width_m"].get<double>(), 0.072, 1e-6);
+  EXPECT_NEAR(body["no_grasp"]["needed_stroke_m"].get<double>(), 0.072, 1e-9);
+  const auto wider = Post("?num_grasps=20&robust_samples=0&opening_stroke_mm=80", box);
+  ASSERT_EQ(wider.status, 200) << wider.body;
+  EXPECT_FALSE(json::parse(wider.body)["grasps"].empty());
+  EXPECT_TRUE(json::parse(wider.body)["no_grasp"].is_null());
+}
+
 TEST_F(MeshesApiTest, MillimetreStlIsConvertedAndRescaledToTheGripper) {
   const std::string stl =
       mesh::WriteStl(softgrasp::testing::BoxMesh({0, 0, 0}, {20, 40, 80}), mesh::Encoding::kBinary);

@@ -418,6 +418,13 @@ describe('mesh panel model', () => {
     assert.equal(meshSummary({ ...result, mesh: { unit_scale_m: 1, rescale_factor: 1,
       warnings: ['2 faces cut through each other'] } }, 'a.ply'),
     'a.ply, unit m: 2 stable poses, 3 grasps, 12 ms. Warnings: 2 faces cut through each other.');
+    assert.equal(meshSummary({ ...result, grasps: [], mesh: {}, no_grasp: {
+      reason: 'wider_than_stroke', needed_stroke_m: 0.072,
+      message: 'the object is 72.0 mm at its narrowest, wider than the 50.0 mm stroke in every '
+        + 'direction: it needs a stroke of at least 72.0 mm' } }, 'box.obj'),
+    'box.obj: 2 stable poses, 0 grasps, 12 ms. No usable grasp: the object is 72.0 mm at its '
+      + 'narrowest, wider than the 50.0 mm stroke in every direction: it needs a stroke of at least '
+      + '72.0 mm.');
     assert.equal(meshSummary({ ...result, mesh: undefined, timing_ms: undefined }, 'a.stl'),
       'a.stl: 2 stable poses, 3 grasps, – ms.');
   });

@@ -94,7 +94,10 @@ export function graspRows(result, pose) {
   });
 }
 
-/** One line about the upload (the answer's "mesh" object: format, size, unit, rescale, repairs) and the analysis. */
+/**
+ * One line about the upload (the answer's "mesh" object: format, size, unit, rescale, repairs)
+ * and the analysis, with the answer's no_grasp message when no grasp is usable.
+ */
 export function meshSummary(result, fileName) {
   const mesh = result.mesh || {};
   const poses = result.stable_poses.length;
@@ -115,8 +118,10 @@ export function meshSummary(result, fileName) {
     ? ` Repairs: ${mesh.repairs.join('; ')}.` : '';
   const warnings = Array.isArray(mesh.warnings) && mesh.warnings.length
     ? ` Warnings: ${mesh.warnings.join('; ')}.` : '';
+  const why = result.no_grasp && typeof result.no_grasp.message === 'string'
+    ? ` No usable grasp: ${result.no_grasp.message}.` : '';
   return `${parts.join(', ')}: ${poses} stable pose${poses === 1 ? '' : 's'}, ${grasps} grasp${grasps === 1 ? '' : 's'}`
-    + `, ${fixed(result.timing_ms && result.timing_ms.total, 0)} ms.${repairs}${warnings}`;
+    + `, ${fixed(result.timing_ms && result.timing_ms.total, 0)} ms.${why}${repairs}${warnings}`;
 }
 
 /** A length in metres as text with a fitting unit: "1 cm", "10 cm", "1 m", "5 mm". */
