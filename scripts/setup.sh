@@ -38,6 +38,9 @@ if [ "$profile" = all ]; then
     iproute2 jq
     # the layering test (tests/layout_test.py)
     python3
+    # the Python client's test (tests/python): numpy, and a venv with pip and setuptools to install
+    # clients/python offline
+    python3-numpy python3-venv python3-pip python3-setuptools
     # the HTTP benchmark (scripts/bench-http.sh): nginx as the baseline, wrk as the load
     nginx-light wrk
     # container images (scripts/images.sh: a Debian base by debootstrap, images by buildah) and
