@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "service/gqcnn/dataset_format.h"
+#include "service/models/model_archive.h"
 
 namespace softgrasp::models {
 namespace {
@@ -203,85 +204,71 @@ void SaveGqcnnNet(const std::filesystem::path& path, GqcnnNet& net, const GqcnnN
   torch::serialize::OutputArchive weights;
   net->save(weights);
   archive.write("net", weights);
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  archive.save_to(tmp.string());
-  std::filesystem::rename(tmp, path);
+  SaveModelArchive(archive, path);
 }
 
 core::Result<LoadedGqcnnNet> LoadGqcnnNet(const std::filesystem::path& path) {
-  auto fail = [&](const std::string& why) {
-    return core::MakeError(core::ErrorCode::kUnprocessable,
-                           "cannot read GQ-CNN model " + path.string() + ": " + why, "model");
-  };
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return core::MakeError(core::ErrorCode::kNotFound, "no GQ-CNN model file at " + path.string(),
-                           "model");
-  }
-  try {
-    torch::serialize::InputArchive archive;
-    archive.load_from(path.string());
-    torch::Tensor kind, config_t, norm_t, card_t;
-    if (!archive.try_read("kind", kind) || kind.numel() != 2 || !kind.equal(KindMarker())) {
-      return fail("a libtorch archive but not a GQ-CNN model");
-    }
-    if (!archive.try_read("config", config_t) || config_t.numel() < 1) return fail("no config");
-    const auto cfg = config_t.to(torch::kInt64).contiguous();
-    const std::int64_t* v = cfg.data_ptr<std::int64_t>();
-    if (v[0] < 1 || v[0] > kGqcnnFormatVersion) {
-      return fail("format version " + std::to_string(v[0]) + ", this build reads versions 1 to " +
-                  std::to_string(kGqcnnFormatVersion));
-    }
-    if (cfg.numel() != ConfigLength(v[0])) return fail("config of the wrong length");
-    for (int i = 1; i < 9; ++i) {
-      if (v[i] < 0 || v[i] > 1024) return fail("implausible config");
-    }
-    LoadedGqcnnNet out;
-    out.config.conv1_channels = static_cast<int>(v[1]);
-    out.config.conv2_channels = static_cast<int>(v[2]);
-    out.config.conv1_1_kernel = static_cast<int>(v[3]);
-    out.config.conv1_2_kernel = static_cast<int>(v[4]);
-    out.config.fc3_units = static_cast<int>(v[5]);
-    out.config.pc1_units = static_cast<int>(v[6]);
-    out.config.fc4_units = static_cast<int>(v[7]);
-    if (v[8] != 0 && v[8] != 1) return fail("implausible config");
-    out.config.local_response_norm = v[8] == 1;
-    if (v[0] >= 2) {
-      if (v[9] != 0 && v[9] != 1) return fail("implausible config");
-      out.config.factored = v[9] == 1;
-    }
-    if (v[0] >= 3) {
-      if (v[10] != 0 && v[10] != 1) return fail("implausible config");
-      out.config.clearance_inputs = v[10] == 1;
-    }
-    if (!ValidConfig(out.config)) return fail("implausible config");
-    if (!archive.try_read("normalisation", norm_t) || norm_t.numel() != 4) {
-      return fail("no normalisation");
-    }
-    const auto nv = norm_t.to(torch::kFloat64).contiguous();
-    const double* n = nv.data_ptr<double>();
-    out.normalisation = {n[0], n[1], n[2], n[3]};
-    if (!std::isfinite(n[0]) || !std::isfinite(n[2]) || !(n[1] > 0) || !(n[3] > 0) ||
-        !std::isfinite(n[1]) || !std::isfinite(n[3])) {
-      return fail("implausible normalisation");
-    }
-    if (!archive.try_read("card", card_t) || card_t.dim() != 1) return fail("no model card");
-    const auto bytes = card_t.to(torch::kUInt8).contiguous();
-    const std::string text(reinterpret_cast<const char*>(bytes.data_ptr<std::uint8_t>()),
-                           static_cast<std::size_t>(bytes.numel()));
-    out.card = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-    if (out.card.is_discarded() || !out.card.is_object()) return fail("model card is not JSON");
-    out.net = GqcnnNet(out.config);
-    torch::serialize::InputArchive weights;
-    if (!archive.try_read("net", weights)) return fail("no network weights");
-    out.net->load(weights);
-    out.net->eval();
-    return out;
-  } catch (const std::exception& e) {
-    std::string what = e.what();
-    if (const auto nl = what.find('\n'); nl != std::string::npos) what.resize(nl);
-    return fail(what);
-  }
+  return LoadModelArchive<LoadedGqcnnNet>(
+      path, "GQ-CNN",
+      [](torch::serialize::InputArchive& archive,
+         const ModelFileError& fail) -> core::Result<LoadedGqcnnNet> {
+        torch::Tensor kind, config_t, norm_t, card_t;
+        if (!archive.try_read("kind", kind) || kind.numel() != 2 || !kind.equal(KindMarker())) {
+          return fail("a libtorch archive but not a GQ-CNN model");
+        }
+        if (!archive.try_read("config", config_t) || config_t.numel() < 1) return fail("no config");
+        const auto cfg = config_t.to(torch::kInt64).contiguous();
+        const std::int64_t* v = cfg.data_ptr<std::int64_t>();
+        if (v[0] < 1 || v[0] > kGqcnnFormatVersion) {
+          return fail("format version " + std::to_string(v[0]) +
+                      ", this build reads versions 1 to " + std::to_string(kGqcnnFormatVersion));
+        }
+        if (cfg.numel() != ConfigLength(v[0])) return fail("config of the wrong length");
+        for (int i = 1; i < 9; ++i) {
+          if (v[i] < 0 || v[i] > 1024) return fail("implausible config");
+        }
+        LoadedGqcnnNet out;
+        out.config.conv1_channels = static_cast<int>(v[1]);
+        out.config.conv2_channels = static_cast<int>(v[2]);
+        out.config.conv1_1_kernel = static_cast<int>(v[3]);
+        out.config.conv1_2_kernel = static_cast<int>(v[4]);
+        out.config.fc3_units = static_cast<int>(v[5]);
+        out.config.pc1_units = static_cast<int>(v[6]);
+        out.config.fc4_units = static_cast<int>(v[7]);
+        if (v[8] != 0 && v[8] != 1) return fail("implausible config");
+        out.config.local_response_norm = v[8] == 1;
+        if (v[0] >= 2) {
+          if (v[9] != 0 && v[9] != 1) return fail("implausible config");
+          out.config.factored = v[9] == 1;
+        }
+        if (v[0] >= 3) {
+          if (v[10] != 0 && v[10] != 1) return fail("implausible config");
+          out.config.clearance_inputs = v[10] == 1;
+        }
+        if (!ValidConfig(out.config)) return fail("implausible config");
+        if (!archive.try_read("normalisation", norm_t) || norm_t.numel() != 4) {
+          return fail("no normalisation");
+        }
+        const auto nv = norm_t.to(torch::kFloat64).contiguous();
+        const double* n = nv.data_ptr<double>();
+        out.normalisation = {n[0], n[1], n[2], n[3]};
+        if (!std::isfinite(n[0]) || !std::isfinite(n[2]) || !(n[1] > 0) || !(n[3] > 0) ||
+            !std::isfinite(n[1]) || !std::isfinite(n[3])) {
+          return fail("implausible normalisation");
+        }
+        if (!archive.try_read("card", card_t) || card_t.dim() != 1) return fail("no model card");
+        const auto bytes = card_t.to(torch::kUInt8).contiguous();
+        const std::string text(reinterpret_cast<const char*>(bytes.data_ptr<std::uint8_t>()),
+                               static_cast<std::size_t>(bytes.numel()));
+        out.card = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+        if (out.card.is_discarded() || !out.card.is_object()) return fail("model card is not JSON");
+        out.net = GqcnnNet(out.config);
+        torch::serialize::InputArchive weights;
+        if (!archive.try_read("net", weights)) return fail("no network weights");
+        out.net->load(weights);
+        out.net->eval();
+        return out;
+      });
 }
 
 }  // namespace softgrasp::models

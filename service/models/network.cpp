@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "service/models/model_archive.h"
 #include "service/models/stiffness_model.h"
 
 namespace softgrasp::models {
@@ -150,68 +151,44 @@ void SaveGenerator(const std::filesystem::path& path, UNetGenerator& generator,
   torch::serialize::OutputArchive net;
   generator->save(net);
   archive.write("generator", net);
-  // Write next to the target and rename: a crash never leaves a half-written model file.
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  archive.save_to(tmp.string());
-  std::filesystem::rename(tmp, path);
+  SaveModelArchive(archive, path);
 }
 
 core::Result<LoadedGenerator> LoadGenerator(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return core::MakeError(core::ErrorCode::kNotFound,
-                           "no stiffness model file at " + path.string(), "model");
-  }
-  try {
-    torch::serialize::InputArchive archive;
-    archive.load_from(path.string());
-    torch::Tensor config_t;
-    torch::Tensor range_t;
-    if (!archive.try_read("config", config_t) || !archive.try_read("height_range_m", range_t) ||
-        config_t.numel() != 5 || range_t.numel() != 1) {
-      return core::MakeError(core::ErrorCode::kUnprocessable,
-                             path.string() +
-                                 " is a libtorch archive but not a stiffness model "
-                                 "(missing config)",
-                             "model");
-    }
-    const auto c = config_t.to(torch::kInt64).contiguous();
-    const std::int64_t* v = c.data_ptr<std::int64_t>();
-    if (v[0] != kModelFormatVersion) {
-      return core::MakeError(core::ErrorCode::kUnprocessable,
-                             path.string() + ": model format version " + std::to_string(v[0]) +
-                                 ", this build reads version " +
-                                 std::to_string(kModelFormatVersion),
-                             "model");
-    }
-    LoadedGenerator out;
-    out.config.input_size = static_cast<int>(v[1]);
-    out.config.base_channels = static_cast<int>(v[2]);
-    out.config.levels = static_cast<int>(v[3]);
-    out.config.disc_channels = static_cast<int>(v[4]);
-    out.height_range_m = range_t.to(torch::kFloat64).item<double>();
-    if (out.config.input_size < 16 || out.config.input_size > 4096 || out.config.levels < 2 ||
-        out.config.levels > 10 || out.config.base_channels < 1 || out.config.base_channels > 1024 ||
-        !(out.height_range_m > 0)) {
-      return core::MakeError(core::ErrorCode::kUnprocessable,
-                             path.string() + ": implausible model config", "model");
-    }
-    out.generator = UNetGenerator(out.config);
-    torch::serialize::InputArchive net;
-    if (!archive.try_read("generator", net)) {
-      return core::MakeError(core::ErrorCode::kUnprocessable,
-                             path.string() + ": no generator in the model file", "model");
-    }
-    out.generator->load(net);
-    out.generator->eval();
-    return out;
-  } catch (const std::exception& e) {
-    // c10::Error derives from std::exception: truncated zip, wrong keys or tensor shapes.
-    std::string what = e.what();
-    if (const auto nl = what.find('\n'); nl != std::string::npos) what.resize(nl);
-    return core::MakeError(core::ErrorCode::kUnprocessable,
-                           "cannot read stiffness model " + path.string() + ": " + what, "model");
-  }
+  return LoadModelArchive<LoadedGenerator>(
+      path, "stiffness",
+      [](torch::serialize::InputArchive& archive,
+         const ModelFileError& fail) -> core::Result<LoadedGenerator> {
+        torch::Tensor config_t;
+        torch::Tensor range_t;
+        if (!archive.try_read("config", config_t) || !archive.try_read("height_range_m", range_t) ||
+            config_t.numel() != 5 || range_t.numel() != 1) {
+          return fail("a libtorch archive but not a stiffness model (missing config)");
+        }
+        const auto c = config_t.to(torch::kInt64).contiguous();
+        const std::int64_t* v = c.data_ptr<std::int64_t>();
+        if (v[0] != kModelFormatVersion) {
+          return fail("model format version " + std::to_string(v[0]) +
+                      ", this build reads version " + std::to_string(kModelFormatVersion));
+        }
+        LoadedGenerator out;
+        out.config.input_size = static_cast<int>(v[1]);
+        out.config.base_channels = static_cast<int>(v[2]);
+        out.config.levels = static_cast<int>(v[3]);
+        out.config.disc_channels = static_cast<int>(v[4]);
+        out.height_range_m = range_t.to(torch::kFloat64).item<double>();
+        if (out.config.input_size < 16 || out.config.input_size > 4096 || out.config.levels < 2 ||
+            out.config.levels > 10 || out.config.base_channels < 1 ||
+            out.config.base_channels > 1024 || !(out.height_range_m > 0)) {
+          return fail("implausible model config");
+        }
+        out.generator = UNetGenerator(out.config);
+        torch::serialize::InputArchive net;
+        if (!archive.try_read("generator", net)) return fail("no generator in the model file");
+        out.generator->load(net);
+        out.generator->eval();
+        return out;
+      });
 }
 
 std::optional<core::Error> HeightRangeMismatch(const std::filesystem::path& path,

@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "service/models/model_archive.h"
+
 namespace softgrasp::models {
 namespace {
 
@@ -90,59 +92,46 @@ void SaveSegmentationNet(const std::filesystem::path& path, SegmentationNet& net
   torch::serialize::OutputArchive weights;
   net->save(weights);
   archive.write("net", weights);
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  archive.save_to(tmp.string());
-  std::filesystem::rename(tmp, path);
+  SaveModelArchive(archive, path);
 }
 
 core::Result<LoadedSegmentationNet> LoadSegmentationNet(const std::filesystem::path& path) {
-  auto fail = [&](const std::string& why) {
-    return core::MakeError(core::ErrorCode::kUnprocessable,
-                           "cannot read segmentation model " + path.string() + ": " + why, "model");
-  };
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return core::MakeError(core::ErrorCode::kNotFound,
-                           "no segmentation model file at " + path.string(), "model");
-  }
-  try {
-    torch::serialize::InputArchive archive;
-    archive.load_from(path.string());
-    torch::Tensor kind, config_t, range_t;
-    if (!archive.try_read("kind", kind) || !kind.equal(KindMarker())) {
-      return fail("a libtorch archive but not a segmentation model");
-    }
-    if (!archive.try_read("config", config_t) || !archive.try_read("height_range_m", range_t) ||
-        config_t.numel() != 5 || range_t.numel() != 1) {
-      return fail("missing config");
-    }
-    const auto cfg = config_t.to(torch::kInt64).contiguous();
-    const std::int64_t* v = cfg.data_ptr<std::int64_t>();
-    if (v[0] != kSegmentationFormatVersion) {
-      return fail("format version " + std::to_string(v[0]) + ", this build reads version " +
-                  std::to_string(kSegmentationFormatVersion));
-    }
-    LoadedSegmentationNet out;
-    out.config.width = static_cast<int>(v[1]);
-    out.config.height = static_cast<int>(v[2]);
-    out.config.base_channels = static_cast<int>(v[3]);
-    out.config.levels = static_cast<int>(v[4]);
-    out.height_range_m = range_t.to(torch::kFloat64).item<double>();
-    if (out.config.width < 16 || out.config.width > 4096 || out.config.height < 16 ||
-        out.config.height > 4096 || out.config.base_channels > 256 || !(out.height_range_m > 0)) {
-      return fail("implausible config");
-    }
-    out.net = SegmentationNet(out.config);  // throws invalid_argument on other bad configs
-    torch::serialize::InputArchive weights;
-    if (!archive.try_read("net", weights)) return fail("no network weights");
-    out.net->load(weights);
-    out.net->eval();
-    return out;
-  } catch (const std::exception& e) {
-    std::string what = e.what();
-    if (const auto nl = what.find('\n'); nl != std::string::npos) what.resize(nl);
-    return fail(what);
-  }
+  return LoadModelArchive<LoadedSegmentationNet>(
+      path, "segmentation",
+      [](torch::serialize::InputArchive& archive,
+         const ModelFileError& fail) -> core::Result<LoadedSegmentationNet> {
+        torch::Tensor kind, config_t, range_t;
+        if (!archive.try_read("kind", kind) || !kind.equal(KindMarker())) {
+          return fail("a libtorch archive but not a segmentation model");
+        }
+        if (!archive.try_read("config", config_t) || !archive.try_read("height_range_m", range_t) ||
+            config_t.numel() != 5 || range_t.numel() != 1) {
+          return fail("missing config");
+        }
+        const auto cfg = config_t.to(torch::kInt64).contiguous();
+        const std::int64_t* v = cfg.data_ptr<std::int64_t>();
+        if (v[0] != kSegmentationFormatVersion) {
+          return fail("format version " + std::to_string(v[0]) + ", this build reads version " +
+                      std::to_string(kSegmentationFormatVersion));
+        }
+        LoadedSegmentationNet out;
+        out.config.width = static_cast<int>(v[1]);
+        out.config.height = static_cast<int>(v[2]);
+        out.config.base_channels = static_cast<int>(v[3]);
+        out.config.levels = static_cast<int>(v[4]);
+        out.height_range_m = range_t.to(torch::kFloat64).item<double>();
+        if (out.config.width < 16 || out.config.width > 4096 || out.config.height < 16 ||
+            out.config.height > 4096 || out.config.base_channels > 256 ||
+            !(out.height_range_m > 0)) {
+          return fail("implausible config");
+        }
+        out.net = SegmentationNet(out.config);  // throws invalid_argument on other bad configs
+        torch::serialize::InputArchive weights;
+        if (!archive.try_read("net", weights)) return fail("no network weights");
+        out.net->load(weights);
+        out.net->eval();
+        return out;
+      });
 }
 
 }  // namespace softgrasp::models
