@@ -40,10 +40,10 @@ core::Result<std::filesystem::path> GenerateFractalBatch(
     return MakeError(ErrorCode::kInvalidArgument,
                      "cannot create " + params.out_dir.string() + ": " + ec.message(), "out");
   }
-  if (const std::string bad = cli::CheckArrayTask(params.task, params.count); !bad.empty()) {
+  if (const std::string bad = CheckArrayTask(params.task, params.count); !bad.empty()) {
     return MakeError(ErrorCode::kInvalidArgument, bad, "task");
   }
-  const cli::ItemRange items = cli::TaskItems(params.task, params.count);
+  const ItemRange items = TaskItems(params.task, params.count);
   json models = json::array();
   for (int i = items.first; i < items.end; ++i) {
     mesh::FractalParams p = params.model;
@@ -70,7 +70,7 @@ core::Result<std::filesystem::path> GenerateFractalBatch(
                       {"gripper_opening_m", params.model.gripper_opening_m},
                       {"fit_fraction", params.model.fit_fraction},
                       {"models", models}};
-  return cli::WriteTaskIndex(params.out_dir, index, params.task, items, "models");
+  return WriteTaskIndex(params.out_dir, index, params.task, items, "models");
 }
 
 }  // namespace softgrasp::sim

@@ -6,10 +6,10 @@
 #include <functional>
 #include <string>
 
-#include "service/cli/array_tasks.h"
 #include "service/core/status.h"
 #include "service/mesh/fractal.h"
 #include "service/mesh/mesh_io.h"
+#include "sim/array_tasks.h"
 
 namespace softgrasp::sim {
 
@@ -20,7 +20,7 @@ struct FractalBatchParams {
   mesh::MeshFormat format = mesh::MeshFormat::kObj;
   std::filesystem::path out_dir;
   /// Task K of N writes only its part of the models and a partial index (array_tasks.h).
-  cli::ArrayTask task;
+  ArrayTask task;
 };
 
 /// Writes `count` meshes (task K of N: its part of them) as fractal_<seed>.<ext> and an

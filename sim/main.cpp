@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "service/cli/args.h"
-#include "service/cli/array_tasks.h"
 #include "service/cli/files.h"
 #include "service/io/depth_codec.h"
 #include "service/process/allocator.h"
+#include "sim/array_tasks.h"
 #include "sim/catalogue/catalogue.h"
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/user_objects.h"
@@ -97,16 +97,16 @@ constexpr const char* kUsage =
     "  merge-tasks the folder is what one process writes.\n";
 
 // --task K --tasks N: both or neither.
-void ParseArrayTask(cli::Args& args, cli::ArrayTask* task) {
+void ParseArrayTask(cli::Args& args, sim::ArrayTask* task) {
   const bool has_task = args.Int("--task", 0, 1000000, &task->index);
   const bool has_tasks = args.Int("--tasks", 1, 1000000, &task->count);
   if (has_task != has_tasks) args.Fail("--task K and --tasks N go together", "--task");
 }
 
 // Progress bar length: the items of this task (the batch's whole count without --tasks).
-int TaskItemCount(const cli::ArrayTask& task, int items) {
-  if (!cli::CheckArrayTask(task, items).empty()) return items;
-  const cli::ItemRange range = cli::TaskItems(task, items);
+int TaskItemCount(const sim::ArrayTask& task, int items) {
+  if (!sim::CheckArrayTask(task, items).empty()) return items;
+  const sim::ItemRange range = sim::TaskItems(task, items);
   return range.end - range.first;
 }
 
@@ -248,14 +248,14 @@ int RunMergeTasks(const std::vector<std::string>& args) {
   }
   // A gqcnn-dataset's parts say so in their "task" object; its merge also renumbers images.
   bool gqcnn = false;
-  if (auto parts = cli::FindTaskIndexes(args[0]); parts.ok()) {
+  if (auto parts = sim::FindTaskIndexes(args[0]); parts.ok()) {
     if (auto text = cli::ReadFile(parts.value().front()); text.ok()) {
       const auto j = nlohmann::json::parse(text.value(), nullptr, false);
       gqcnn = j.is_object() && j.contains("task") && j["task"].is_object() &&
               j["task"].value("kind", "") == "gqcnn-dataset";
     }
   }
-  auto index = gqcnn ? sim::MergeGqcnnDatasetTasks(args[0]) : cli::MergeTaskIndexes(args[0]);
+  auto index = gqcnn ? sim::MergeGqcnnDatasetTasks(args[0]) : sim::MergeTaskIndexes(args[0]);
   if (!index.ok()) {
     std::cerr << "softgrasp-sim merge-tasks: " << index.error().message << "\n";
     return 1;

@@ -101,10 +101,10 @@ core::Result<std::filesystem::path> GenerateDataset(const DatasetParams& params,
     return MakeError(ErrorCode::kInvalidArgument, "shard_size must be in 1..100000", "shard_size");
   }
   if (auto invalid = ValidateSceneSpec(params.spec)) return *invalid;
-  if (const std::string bad = cli::CheckArrayTask(params.task, params.scenes); !bad.empty()) {
+  if (const std::string bad = CheckArrayTask(params.task, params.scenes); !bad.empty()) {
     return MakeError(ErrorCode::kInvalidArgument, bad, "task");
   }
-  const cli::ItemRange items = cli::TaskItems(params.task, params.scenes);
+  const ItemRange items = TaskItems(params.task, params.scenes);
 
   json scenes = json::array();
   for (int i = items.first; i < items.end; ++i) {
@@ -148,7 +148,7 @@ core::Result<std::filesystem::path> GenerateDataset(const DatasetParams& params,
   };
   std::error_code ec;
   std::filesystem::create_directories(params.out_dir, ec);  // a task may have no shard folder
-  return cli::WriteTaskIndex(params.out_dir, index, params.task, items, "entries");
+  return WriteTaskIndex(params.out_dir, index, params.task, items, "entries");
 }
 
 }  // namespace softgrasp::sim

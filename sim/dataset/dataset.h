@@ -11,8 +11,8 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "service/cli/array_tasks.h"
 #include "service/core/status.h"
+#include "sim/array_tasks.h"
 #include "sim/dataset/scene_gen.h"
 
 namespace softgrasp::sim {
@@ -23,9 +23,9 @@ struct DatasetParams {
   int shard_size = 100;  ///< scenes per shard folder; 1..100000
   SceneSpec spec;
   std::filesystem::path out_dir;
-  /// Task K of N makes only its part of the scenes and a partial index (service/cli/array_tasks.h);
+  /// Task K of N makes only its part of the scenes and a partial index (sim/array_tasks.h);
   /// merging the N partial indexes gives the index.json of one process. Default: the whole batch.
-  cli::ArrayTask task;
+  ArrayTask task;
 };
 
 /// Depth in metres -> 16-bit millimetres (rounded; NaN, <= 0 and > 65.535 m become 0).

@@ -94,11 +94,11 @@ struct TaskFiles {
   std::string index;
   std::string skipped;
 };
-TaskFiles TaskFilesOf(const cli::ArrayTask& task) {
+TaskFiles TaskFilesOf(const ArrayTask& task) {
   if (task.count == 1) return {std::string(gqcnn::kIndexFileName), "skipped.json"};
   const std::string suffix =
       ".task-" + std::to_string(task.index) + "-of-" + std::to_string(task.count) + ".json";
-  return {cli::IndexFileName(task), "skipped" + suffix};
+  return {IndexFileName(task), "skipped" + suffix};
 }
 
 /// A partial index's JSON: the dataset index plus a "task" object.
@@ -130,9 +130,9 @@ core::Result<gqcnn::DatasetIndex> ReadTaskIndex(const fs::path& dir, const TaskF
   return std::move(parsed.value().first);
 }
 
-std::optional<core::Error> WriteTaskIndex(const fs::path& dir, const gqcnn::DatasetIndex& index,
-                                          const cli::ArrayTask& task,
-                                          const cli::ItemRange& shards) {
+std::optional<core::Error> WriteDatasetTaskIndex(const fs::path& dir,
+                                                 const gqcnn::DatasetIndex& index,
+                                                 const ArrayTask& task, const ItemRange& shards) {
   if (task.count == 1) return gqcnn::WriteIndex(dir, index);
   json j = gqcnn::IndexToJson(index);
   j[kTaskKey] = {{"kind", kTaskKind},
@@ -140,7 +140,7 @@ std::optional<core::Error> WriteTaskIndex(const fs::path& dir, const gqcnn::Data
                  {"of", task.count},
                  {"first_shard", shards.first},
                  {"end_shard", shards.end}};
-  return cli::WriteFile(dir / cli::IndexFileName(task), j.dump(1) + "\n", cli::Parents::kCreate);
+  return cli::WriteFile(dir / IndexFileName(task), j.dump(1) + "\n", cli::Parents::kCreate);
 }
 
 }  // namespace
@@ -717,11 +717,10 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
   const auto objects = static_cast<std::uint32_t>(params.objects);
   const auto per_shard = static_cast<std::uint32_t>(params.shard_objects);
   const std::uint32_t shards = (objects + per_shard - 1) / per_shard;
-  if (const std::string bad = cli::CheckArrayTask(params.task, static_cast<int>(shards));
-      !bad.empty()) {
+  if (const std::string bad = CheckArrayTask(params.task, static_cast<int>(shards)); !bad.empty()) {
     return MakeError(ErrorCode::kInvalidArgument, bad + " (tasks split the shards)", "task");
   }
-  const cli::ItemRange task_shards = cli::TaskItems(params.task, static_cast<int>(shards));
+  const ItemRange task_shards = TaskItems(params.task, static_cast<int>(shards));
   const TaskFiles task_files = TaskFilesOf(params.task);
 
   // An earlier run's index: same configuration, or refuse.
@@ -867,7 +866,8 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
             cli::WriteFile(params.out_dir / task_files.skipped, skipped_json.dump(1) + "\n")) {
       return *error;
     }
-    if (auto error = WriteTaskIndex(params.out_dir, result.index, params.task, task_shards)) {
+    if (auto error =
+            WriteDatasetTaskIndex(params.out_dir, result.index, params.task, task_shards)) {
       return *error;
     }
   }
@@ -876,7 +876,7 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
 }
 
 core::Result<fs::path> MergeGqcnnDatasetTasks(const fs::path& dir) {
-  auto found = cli::FindTaskIndexes(dir);
+  auto found = FindTaskIndexes(dir);
   if (!found.ok()) return found.error();
   const std::vector<fs::path>& parts = found.value();
   const int of = static_cast<int>(parts.size());

@@ -22,10 +22,10 @@
 #include <string>
 #include <vector>
 
-#include "service/cli/array_tasks.h"
 #include "service/core/status.h"
 #include "service/gqcnn/dataset_format.h"
 #include "service/mesh_grasps/mesh_grasp_analysis.h"
+#include "sim/array_tasks.h"
 #include "sim/render/render.h"
 
 namespace softgrasp::sim {
@@ -88,11 +88,11 @@ struct GqcnnDatasetParams {
   /// previews/crops.png (0 = none): depth about the grasp depth in grey, jaw ticks in cyan,
   /// a green (positive) or red frame.
   int preview_crops = 0;
-  /// Task K of N (array jobs, service/cli/array_tasks.h) makes only its part of the shards, with
+  /// Task K of N (array jobs, sim/array_tasks.h) makes only its part of the shards, with
   /// image numbers counted from 0 in that part, and writes index.task-K-of-N.json and
   /// skipped.task-K-of-N.json (resumable like a whole run); MergeGqcnnDatasetTasks renumbers the
   /// images and writes the index of one process. Only task 0 writes the preview.
-  cli::ArrayTask task;
+  ArrayTask task;
 };
 
 /// The defaults above with the analysis options of the issue: 100 grasps, 25 robust samples,
@@ -134,7 +134,7 @@ core::Result<GqcnnDatasetResult> GenerateGqcnnDataset(
 /// numbers by the images of the tasks before it (rewriting its shard files; a shard already
 /// shifted is left alone, so an interrupted merge can be run again), then writes index.json and
 /// skipped.json. The folder is then byte for byte what one process with the same parameters
-/// writes (without --preview). Errors: cli::FindTaskIndexes', kInvalidArgument for parts of
+/// writes (without --preview). Errors: FindTaskIndexes', kInvalidArgument for parts of
 /// another configuration or whose shards do not follow on, a shard's read or write error.
 core::Result<std::filesystem::path> MergeGqcnnDatasetTasks(const std::filesystem::path& dir);
 

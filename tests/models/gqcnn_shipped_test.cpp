@@ -14,12 +14,12 @@
 #include <vector>
 
 #include "service/models/gqcnn_model.h"
-#include "service/models/gqcnn_trainer.h"
 #include "service/models/stiffness_model.h"
 #include "sim/gqcnn/gqcnn_dataset.h"
 #include "tests/support/temp_dir.h"
 #include "tests/support/test_data.h"
 #include "tools/train/gqcnn_metrics.h"
+#include "train/gqcnn_trainer.h"
 
 namespace softgrasp::models {
 namespace {

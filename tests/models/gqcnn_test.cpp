@@ -13,13 +13,13 @@
 
 #include "service/models/gqcnn_model.h"
 #include "service/models/gqcnn_network.h"
-#include "service/models/gqcnn_trainer.h"
 #include "service/models/network.h"
 #include "service/models/segmentation_network.h"
 #include "service/models/stiffness_model.h"
-#include "service/models/trainer.h"
 #include "tests/models/gqcnn_synthetic.h"
 #include "tests/support/temp_dir.h"
+#include "train/gqcnn_trainer.h"
+#include "train/trainer.h"
 
 namespace softgrasp::models {
 namespace {

@@ -9,12 +9,12 @@
 #include <fstream>
 #include <opencv2/imgproc.hpp>
 
-#include "service/models/dataset.h"
 #include "service/models/network.h"
 #include "service/models/stiffness_model.h"
-#include "service/models/trainer.h"
 #include "sim/dataset/dataset.h"
 #include "tests/support/temp_dir.h"
+#include "train/dataset.h"
+#include "train/trainer.h"
 
 namespace softgrasp::models {
 namespace {

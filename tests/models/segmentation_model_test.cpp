@@ -13,14 +13,14 @@
 #include <opencv2/imgproc.hpp>
 
 #include "service/core/preprocess.h"
-#include "service/models/dataset.h"
 #include "service/models/network.h"
 #include "service/models/segmentation_grouping.h"
 #include "service/models/segmentation_network.h"
-#include "service/models/segmentation_trainer.h"
 #include "service/models/stiffness_model.h"
 #include "sim/dataset/dataset.h"
 #include "tests/support/temp_dir.h"
+#include "train/dataset.h"
+#include "train/segmentation_trainer.h"
 
 namespace softgrasp::models {
 namespace {

@@ -17,10 +17,10 @@
 #include <vector>
 
 #include "service/engine/engine.h"
-#include "service/models/dataset.h"
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/scene_gen.h"
 #include "tests/support/temp_dir.h"
+#include "train/dataset.h"
 
 namespace softgrasp::models {
 namespace {

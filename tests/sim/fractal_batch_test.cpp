@@ -65,7 +65,7 @@ TEST(FractalBatchTest, ArrayTasksMergeIntoTheBytesOfOneProcess) {
     params.task = {k, 2};
     ASSERT_TRUE(GenerateFractalBatch(params).ok());
   }
-  ASSERT_TRUE(cli::MergeTaskIndexes(params.out_dir).ok());
+  ASSERT_TRUE(MergeTaskIndexes(params.out_dir).ok());
   int files = 0;
   for (const auto& entry : fs::directory_iterator(FreshDir("tasks_whole"))) {
     const fs::path twin = params.out_dir / entry.path().filename();

@@ -16,12 +16,12 @@
 #include "service/core/preprocess.h"
 #include "service/engine/engine.h"
 #include "service/engine/strategies/stiffness.h"
-#include "service/models/dataset.h"
 #include "service/models/stiffness_model.h"
 #include "sim/dataset/scene_gen.h"
 #include "sim/grasp/execute.h"
 #include "sim/progress.h"
 #include "tools/train/bootstrap.h"
+#include "train/dataset.h"
 
 namespace softgrasp::tools {
 namespace {

@@ -17,12 +17,12 @@
 #include "service/gqcnn/clearance.h"
 #include "service/models/gqcnn_model.h"
 #include "service/models/gqcnn_network.h"
-#include "service/models/gqcnn_trainer.h"
 #include "service/models/network.h"
 #include "service/models/stiffness_model.h"
-#include "service/models/trainer.h"
 #include "sim/progress.h"
 #include "tools/train/gqcnn_metrics.h"
+#include "train/gqcnn_trainer.h"
+#include "train/trainer.h"
 
 namespace softgrasp::tools {
 

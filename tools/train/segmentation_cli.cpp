@@ -9,12 +9,12 @@
 #include <sstream>
 
 #include "service/cli/args.h"
-#include "service/models/dataset.h"
 #include "service/models/segmentation_model.h"
-#include "service/models/segmentation_trainer.h"
 #include "service/models/stiffness_model.h"
-#include "service/models/trainer.h"
 #include "sim/progress.h"
+#include "train/dataset.h"
+#include "train/segmentation_trainer.h"
+#include "train/trainer.h"
 
 namespace softgrasp::tools {
 

@@ -14,7 +14,6 @@
 #include "service/cli/args.h"
 #include "service/core/metrics.h"
 #include "service/core/preprocess.h"
-#include "service/models/dataset.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
 #include "service/segmentation/fuse.h"
@@ -22,6 +21,7 @@
 #include "service/segmentation/pcl_segmenter.h"
 #include "sim/progress.h"
 #include "tools/train/segmentation_cli.h"
+#include "train/dataset.h"
 
 namespace softgrasp::tools {
 namespace {

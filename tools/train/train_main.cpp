@@ -17,9 +17,7 @@
 #include <vector>
 
 #include "service/cli/args.h"
-#include "service/models/dataset.h"
 #include "service/models/stiffness_model.h"
-#include "service/models/trainer.h"
 #include "service/process/allocator.h"
 #include "sim/progress.h"
 #include "tools/train/evaluate.h"
@@ -27,6 +25,8 @@
 #include "tools/train/gqcnn_cli.h"
 #include "tools/train/gqcnn_picks.h"
 #include "tools/train/segmentation_cli.h"
+#include "train/dataset.h"
+#include "train/trainer.h"
 
 namespace {
 

@@ -237,7 +237,7 @@ TEST(GenerateDataset, ArrayTasksMergeIntoTheBytesOfOneProcess) {
     EXPECT_EQ(index.value().filename(), "index.task-" + std::to_string(k) + "-of-3.json");
     EXPECT_EQ(done, k == 2 ? 2 : 1);  // 4 scenes: 1 + 1 + 2
   }
-  ASSERT_TRUE(cli::MergeTaskIndexes(split).ok());
+  ASSERT_TRUE(MergeTaskIndexes(split).ok());
   auto merged = Snapshot(split);
   for (int k = 0; k < 3; ++k) merged.erase("index.task-" + std::to_string(k) + "-of-3.json");
   EXPECT_EQ(merged, Snapshot(FreshDir("whole")));

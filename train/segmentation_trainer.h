@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "service/core/status.h"
-#include "service/models/dataset.h"
 #include "service/models/segmentation_network.h"
+#include "train/dataset.h"
 
 namespace softgrasp::models {
 

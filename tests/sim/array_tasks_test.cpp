@@ -1,7 +1,7 @@
 // Array tasks: the split of a batch into N contiguous parts, the partial indexes, and their merge
 // into the index one process writes (byte for byte), with the errors a half-finished or mixed-up
 // array job gives.
-#include "service/cli/array_tasks.h"
+#include "sim/array_tasks.h"
 
 #include <gtest/gtest.h>
 
@@ -10,13 +10,13 @@
 #include "service/cli/files.h"
 #include "tests/support/temp_dir.h"
 
-namespace softgrasp::cli {
+namespace softgrasp::sim {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-std::string Slurp(const fs::path& p) { return ReadFile(p).value(); }
+std::string Slurp(const fs::path& p) { return cli::ReadFile(p).value(); }
 
 // An index like the batch commands write: a header and one entry per item.
 json IndexOf(int first, int end, int total, int seed = 7) {
@@ -113,7 +113,7 @@ TEST(ArrayTasks, PartsOfDifferentRunsAreRefused) {
   {
     const softgrasp::testing::TempDir dir("array-tasks-broken");
     WriteParts(dir.path(), 10, 2, {0});
-    ASSERT_FALSE(WriteFile(dir / "index.task-1-of-2.json", "{\"task\": 3").has_value());
+    ASSERT_FALSE(cli::WriteFile(dir / "index.task-1-of-2.json", "{\"task\": 3").has_value());
     auto merged = MergeTaskIndexes(dir.path());
     ASSERT_FALSE(merged.ok());
     EXPECT_EQ(merged.error().code, core::ErrorCode::kInvalidArgument);
@@ -136,10 +136,10 @@ TEST(ArrayTasks, PartsOfDifferentRunsAreRefused) {
     WriteParts(dir.path(), 10, 2, {0, 1});
     for (const char* stray : {"index.task-x-of-2.json", "index.task-1-of-2.json.tmp",
                               "index.task--1-of-2.json", "index.task-1-of-.json"}) {
-      ASSERT_FALSE(WriteFile(dir / stray, "{}").has_value());
+      ASSERT_FALSE(cli::WriteFile(dir / stray, "{}").has_value());
     }
     EXPECT_TRUE(MergeTaskIndexes(dir.path()).ok());
-    ASSERT_FALSE(WriteFile(dir / "index.task-2-of-2.json", "{}").has_value());
+    ASSERT_FALSE(cli::WriteFile(dir / "index.task-2-of-2.json", "{}").has_value());
     auto merged = MergeTaskIndexes(dir.path());
     ASSERT_FALSE(merged.ok());
     EXPECT_NE(merged.error().message.find("names no task of 2"), std::string::npos)
@@ -151,4 +151,4 @@ TEST(ArrayTasks, PartsOfDifferentRunsAreRefused) {
 }
 
 }  // namespace
-}  // namespace softgrasp::cli
+}  // namespace softgrasp::sim

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "service/core/status.h"
-#include "service/models/dataset.h"
 #include "service/models/network.h"
+#include "train/dataset.h"
 
 namespace softgrasp::models {
 

@@ -1,4 +1,4 @@
-#include "service/models/loss_plot.h"
+#include "train/loss_plot.h"
 
 #include <algorithm>
 #include <opencv2/imgcodecs.hpp>

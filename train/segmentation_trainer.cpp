@@ -1,4 +1,4 @@
-#include "service/models/segmentation_trainer.h"
+#include "train/segmentation_trainer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -10,11 +10,11 @@
 #include <random>
 
 #include "service/core/preprocess.h"
-#include "service/models/loss_plot.h"
 #include "service/models/network.h"
-#include "service/models/seed_mix.h"
 #include "service/models/stiffness_model.h"
-#include "service/models/trainer.h"
+#include "train/loss_plot.h"
+#include "train/seed_mix.h"
+#include "train/trainer.h"
 
 namespace softgrasp::models {
 namespace {

@@ -16,7 +16,7 @@
 
 #include "service/core/status.h"
 
-namespace softgrasp::cli {
+namespace softgrasp::sim {
 
 struct ArrayTask {
   int index = 0;  ///< K, 0-based
@@ -54,4 +54,4 @@ core::Result<std::vector<std::filesystem::path>> FindTaskIndexes(const std::file
 /// unreadable, made with other arguments, or of different N. The partial indexes are kept.
 core::Result<std::filesystem::path> MergeTaskIndexes(const std::filesystem::path& dir);
 
-}  // namespace softgrasp::cli
+}  // namespace softgrasp::sim

@@ -1,5 +1,5 @@
 #pragma once
-/// Internal to softgrasp_models: per-(seed, step) random streams for deterministic, resumable
+/// Internal to softgrasp_train: per-(seed, step) random streams for deterministic, resumable
 /// training.
 
 #include <cstdint>

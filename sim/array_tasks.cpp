@@ -1,4 +1,4 @@
-#include "service/cli/array_tasks.h"
+#include "sim/array_tasks.h"
 
 #include <charconv>
 #include <map>
@@ -9,7 +9,7 @@
 
 #include "service/cli/files.h"
 
-namespace softgrasp::cli {
+namespace softgrasp::sim {
 namespace {
 
 using core::ErrorCode;
@@ -79,7 +79,7 @@ core::Result<std::filesystem::path> WriteTaskIndex(const std::filesystem::path& 
                        {"entries_key", entries_key}};
   }
   const std::filesystem::path path = dir / IndexFileName(task);
-  if (auto error = WriteFile(path, index.dump(2) + "\n")) {
+  if (auto error = cli::WriteFile(path, index.dump(2) + "\n")) {
     return MakeError(ErrorCode::kInvalidArgument, error->message, "out");
   }
   return path;
@@ -141,7 +141,7 @@ core::Result<std::filesystem::path> MergeTaskIndexes(const std::filesystem::path
   json entries = json::array();
   for (int k = 0; k < of; ++k) {
     const std::filesystem::path& path = parts[static_cast<std::size_t>(k)];
-    auto text = ReadFile(path);
+    auto text = cli::ReadFile(path);
     if (!text.ok()) return MakeError(ErrorCode::kInvalidArgument, text.error().message, "dir");
     json part = json::parse(text.value(), nullptr, /*allow_exceptions=*/false);
     const auto bad = [&](const std::string& why) {
@@ -180,10 +180,10 @@ core::Result<std::filesystem::path> MergeTaskIndexes(const std::filesystem::path
   }
   merged[entries_key] = std::move(entries);
   const std::filesystem::path path = dir / "index.json";
-  if (auto error = WriteFile(path, merged.dump(2) + "\n")) {
+  if (auto error = cli::WriteFile(path, merged.dump(2) + "\n")) {
     return MakeError(ErrorCode::kInvalidArgument, error->message, "dir");
   }
   return path;
 }
 
-}  // namespace softgrasp::cli
+}  // namespace softgrasp::sim

@@ -1,4 +1,4 @@
-#include "service/models/trainer.h"
+#include "train/trainer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -10,9 +10,9 @@
 #include <random>
 #include <sstream>
 
-#include "service/models/loss_plot.h"
-#include "service/models/seed_mix.h"
 #include "service/models/stiffness_model.h"
+#include "train/loss_plot.h"
+#include "train/seed_mix.h"
 
 namespace softgrasp::models {
 namespace {

@@ -1,4 +1,4 @@
-#include "service/models/dataset.h"
+#include "train/dataset.h"
 
 #include <algorithm>
 #include <cmath>

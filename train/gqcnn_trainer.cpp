@@ -1,4 +1,4 @@
-#include "service/models/gqcnn_trainer.h"
+#include "train/gqcnn_trainer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -10,10 +10,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "service/gqcnn/clearance.h"
-#include "service/models/loss_plot.h"
 #include "service/models/network.h"
-#include "service/models/seed_mix.h"
-#include "service/models/trainer.h"
+#include "train/loss_plot.h"
+#include "train/seed_mix.h"
+#include "train/trainer.h"
 
 namespace softgrasp::models {
 namespace {
