@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "service/cli/args.h"
+#include "service/cli/progress.h"
 #include "service/core/fge_stiffness.h"
 #include "service/core/metrics.h"
 #include "service/core/preprocess.h"
@@ -18,7 +19,6 @@
 #include "service/models/stiffness_model.h"
 #include "sim/dataset/scene_gen.h"
 #include "sim/grasp/execute.h"
-#include "sim/progress.h"
 #include "tools/train/bootstrap.h"
 #include "train/dataset.h"
 
@@ -358,7 +358,7 @@ int RunEvaluate(std::vector<std::string> argv) {
   StrategyStats fge, stiff, oracle, stiff_compared;
   std::map<std::string, CategoryError> by_category;
   int skipped = 0, mismatched = 0;
-  sim::ProgressBar bar("evaluating", n);
+  cli::ProgressBar bar("evaluating", n);
   for (int i = 0; i < n; ++i) {
     bar.Update(i);
     auto sample = val.value().Load(i);

@@ -11,6 +11,7 @@
 
 #include "service/cli/args.h"
 #include "service/cli/files.h"
+#include "service/cli/progress.h"
 #include "service/codec/json_codec.h"
 #include "service/core/fge_deformability.h"
 #include "service/engine/engine.h"
@@ -19,7 +20,6 @@
 #include "service/segmentation/instance_metrics.h"
 #include "sim/dataset/scene_gen.h"
 #include "sim/grasp/execute.h"
-#include "sim/progress.h"
 #include "sim/render/render.h"
 #include "tools/train/bootstrap.h"
 
@@ -646,7 +646,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     std::vector<Stats> stats(planners.size());
     int used = 0, skipped = 0;
     TargetSkips target_skips;
-    sim::ProgressBar bar(std::string(TaskName(task)) + " scenes", wanted);
+    cli::ProgressBar bar(std::string(TaskName(task)) + " scenes", wanted);
     for (int i = 0; used < wanted && i < 5 * wanted + 10; ++i) {
       bar.Update(used);
       const std::uint64_t scene_seed =
@@ -690,7 +690,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     }
     if (task == Task::kClutter && bins > 0) {
       std::vector<ClearingStats> clearing(planners.size());
-      sim::ProgressBar bin_bar("bin clearing", bins);
+      cli::ProgressBar bin_bar("bin clearing", bins);
       for (int b = 0; b < bins; ++b) {
         bin_bar.Update(b);
         auto generated =

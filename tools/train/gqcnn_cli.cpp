@@ -14,12 +14,12 @@
 
 #include "service/cli/args.h"
 #include "service/cli/files.h"
+#include "service/cli/progress.h"
 #include "service/gqcnn/clearance.h"
 #include "service/models/gqcnn_model.h"
 #include "service/models/gqcnn_network.h"
 #include "service/models/network.h"
 #include "service/models/stiffness_model.h"
-#include "sim/progress.h"
 #include "tools/train/gqcnn_metrics.h"
 #include "train/gqcnn_trainer.h"
 #include "train/trainer.h"
@@ -98,9 +98,9 @@ void ReadNetworkOptions(cli::Args& args, models::GqcnnNetConfig* c) {
 
 core::Result<models::GqcnnSet> Load(const std::vector<std::string>& dirs) {
   std::vector<fs::path> paths(dirs.begin(), dirs.end());
-  std::unique_ptr<sim::ProgressBar> bar;
+  std::unique_ptr<cli::ProgressBar> bar;
   auto set = models::LoadGqcnnSet(paths, [&](int done, int total) {
-    if (!bar) bar = std::make_unique<sim::ProgressBar>("loading shards", total);
+    if (!bar) bar = std::make_unique<cli::ProgressBar>("loading shards", total);
     bar->Update(done);
   });
   bar.reset();
@@ -160,13 +160,13 @@ int RunGqcnnTrain(std::vector<std::string> argv) {
             << " s; threads " << threads << std::endl;
 
   const bool tty = isatty(STDERR_FILENO) != 0;
-  std::unique_ptr<sim::ProgressBar> bar;
+  std::unique_ptr<cli::ProgressBar> bar;
   const auto t_train = std::chrono::steady_clock::now();
   int first_step = -1;
   auto report = models::TrainGqcnn(
       o, set.value(),
       [&](const models::GqcnnStepRecord& r, const models::GqcnnValidation* v, int total) {
-        if (!bar) bar = std::make_unique<sim::ProgressBar>("training", total);
+        if (!bar) bar = std::make_unique<cli::ProgressBar>("training", total);
         if (first_step < 0) first_step = r.step;
         bar->Update(r.step);
         const double s =

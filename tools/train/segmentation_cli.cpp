@@ -9,9 +9,9 @@
 #include <sstream>
 
 #include "service/cli/args.h"
+#include "service/cli/progress.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
-#include "sim/progress.h"
 #include "train/dataset.h"
 #include "train/segmentation_trainer.h"
 #include "train/trainer.h"
@@ -115,7 +115,7 @@ int RunSegmentationTrain(std::vector<std::string> argv) {
   for (const auto& d : datasets.value())
     total += max_scenes > 0 ? std::min(max_scenes, d.size()) : d.size();
   const auto t0 = std::chrono::steady_clock::now();
-  auto load_bar = std::make_unique<sim::ProgressBar>("loading", total);
+  auto load_bar = std::make_unique<cli::ProgressBar>("loading", total);
   auto set =
       models::BuildSegmentationSet(datasets.value(), cv::Size(o.network.width, o.network.height),
                                    max_scenes, [&](int done, int) { load_bar->Update(done); });
@@ -128,7 +128,7 @@ int RunSegmentationTrain(std::vector<std::string> argv) {
             << "; threads " << threads << std::endl;
 
   const bool tty = isatty(STDERR_FILENO) != 0;
-  sim::ProgressBar bar("training", o.steps);
+  cli::ProgressBar bar("training", o.steps);
   const auto t_train = std::chrono::steady_clock::now();
   int first_step = -1;
   auto report = models::TrainSegmentation(

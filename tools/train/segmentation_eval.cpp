@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "service/cli/args.h"
+#include "service/cli/progress.h"
 #include "service/core/metrics.h"
 #include "service/core/preprocess.h"
 #include "service/models/segmentation_model.h"
@@ -19,7 +20,6 @@
 #include "service/segmentation/fuse.h"
 #include "service/segmentation/instance_metrics.h"
 #include "service/segmentation/pcl_segmenter.h"
-#include "sim/progress.h"
 #include "tools/train/segmentation_cli.h"
 #include "train/dataset.h"
 
@@ -230,7 +230,7 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
     if (!ds.ok()) return Fail(ds.error().message);
     const int count = max_scenes > 0 ? std::min(max_scenes, ds.value().size()) : ds.value().size();
     SetResult r;
-    sim::ProgressBar bar("evaluating " + std::filesystem::path(dir).filename().string(), count);
+    cli::ProgressBar bar("evaluating " + std::filesystem::path(dir).filename().string(), count);
     for (int i = 0; i < count; ++i) {
       auto sample = ds.value().Load(i);
       if (!sample.ok()) return Fail(sample.error().message);

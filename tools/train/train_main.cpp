@@ -17,9 +17,9 @@
 #include <vector>
 
 #include "service/cli/args.h"
+#include "service/cli/progress.h"
 #include "service/models/stiffness_model.h"
 #include "service/process/allocator.h"
-#include "sim/progress.h"
 #include "tools/train/evaluate.h"
 #include "tools/train/evaluate_tasks.h"
 #include "tools/train/gqcnn_cli.h"
@@ -107,8 +107,8 @@ int RunStiffness(std::vector<std::string> argv) {
   auto dataset = models::SceneDataset::Open(data);
   if (!dataset.ok()) return FailError(dataset.error());
   const auto t0 = std::chrono::steady_clock::now();
-  std::unique_ptr<softgrasp::sim::ProgressBar> load_bar;
-  load_bar = std::make_unique<softgrasp::sim::ProgressBar>(
+  std::unique_ptr<cli::ProgressBar> load_bar;
+  load_bar = std::make_unique<cli::ProgressBar>(
       "loading",
       max_scenes > 0 ? std::min(max_scenes, dataset.value().size()) : dataset.value().size());
   auto set = models::BuildTrainingSet(dataset.value(), o.network.input_size, max_scenes,
@@ -122,7 +122,7 @@ int RunStiffness(std::vector<std::string> argv) {
             << "; threads " << threads << std::endl;
 
   const bool tty = isatty(STDERR_FILENO) != 0;
-  softgrasp::sim::ProgressBar bar("training", o.steps);
+  cli::ProgressBar bar("training", o.steps);
   const auto t_train = std::chrono::steady_clock::now();
   int first_step = -1;
   auto report = models::Train(o, set.value(), [&](const models::LossRecord& r, int total) {
