@@ -12,6 +12,7 @@
 
 #include "service/cli/args.h"
 #include "service/cli/files.h"
+#include "service/cli/progress.h"
 #include "service/io/depth_codec.h"
 #include "service/process/allocator.h"
 #include "sim/array_tasks.h"
@@ -21,7 +22,6 @@
 #include "sim/fractal_batch.h"
 #include "sim/gqcnn/gqcnn_dataset.h"
 #include "sim/mesh_grasps_batch.h"
-#include "sim/progress.h"
 #include "sim/robot/robot_cli.h"
 
 namespace {
@@ -187,7 +187,7 @@ int RunGenerate(const std::vector<std::string>& args) {
     std::cerr << "softgrasp-sim generate: " << problem << "\n" << kUsage;
     return 2;
   }
-  sim::ProgressBar bar("scenes", TaskItemCount(params.task, params.scenes));
+  cli::ProgressBar bar("scenes", TaskItemCount(params.task, params.scenes));
   auto index = sim::GenerateDataset(params, [&bar](int done) { bar.Update(done); });
   if (!index.ok()) {
     std::cerr << "softgrasp-sim generate: " << index.error().message << "\n";
@@ -231,7 +231,7 @@ int RunFractals(const std::vector<std::string>& args) {
     std::cerr << "softgrasp-sim fractals: " << problem << "\n" << kUsage;
     return 2;
   }
-  sim::ProgressBar bar("fractals", TaskItemCount(params.task, params.count));
+  cli::ProgressBar bar("fractals", TaskItemCount(params.task, params.count));
   auto index = sim::GenerateFractalBatch(params, [&bar](int done) { bar.Update(done); });
   if (!index.ok()) {
     std::cerr << "softgrasp-sim fractals: " << index.error().message << "\n";
@@ -301,7 +301,7 @@ int RunMeshGrasps(const std::vector<std::string>& args) {
     std::cerr << "softgrasp-sim mesh-grasps: " << problem << "\n" << kUsage;
     return 2;
   }
-  sim::ProgressBar bar("meshes", static_cast<int>(params.meshes.size()));
+  cli::ProgressBar bar("meshes", static_cast<int>(params.meshes.size()));
   auto result = sim::AnalyseMeshBatch(params, [&bar](int done) { bar.Update(done); });
   if (!result.ok()) {
     std::cerr << "softgrasp-sim mesh-grasps: " << result.error().message << "\n";
@@ -381,9 +381,9 @@ int RunGqcnnDataset(const std::vector<std::string>& args) {
     }
     params.objects = std::max(files, 1);
   }
-  std::unique_ptr<sim::ProgressBar> bar;
+  std::unique_ptr<cli::ProgressBar> bar;
   auto result = sim::GenerateGqcnnDataset(params, [&bar](int done, int total) {
-    if (!bar) bar = std::make_unique<sim::ProgressBar>("objects", total);
+    if (!bar) bar = std::make_unique<cli::ProgressBar>("objects", total);
     bar->Update(done);
   });
   bar.reset();

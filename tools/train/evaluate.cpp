@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "service/cli/args.h"
+#include "service/cli/progress.h"
 #include "service/core/fge_stiffness.h"
 #include "service/core/metrics.h"
 #include "service/core/preprocess.h"
@@ -19,8 +20,8 @@
 #include "service/models/stiffness_model.h"
 #include "sim/dataset/scene_gen.h"
 #include "sim/grasp/execute.h"
-#include "sim/progress.h"
 #include "tools/train/bootstrap.h"
+#include "tools/train/cli_common.h"
 #include "train/dataset.h"
 
 namespace softgrasp::tools {
@@ -28,12 +29,7 @@ namespace {
 
 using nlohmann::json;
 
-int Fail(const std::string& message) {
-  std::cerr << "softgrasp-train evaluate: " << message << "\n";
-  return 2;
-}
-
-json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+constexpr std::string_view kCommand = "evaluate";
 
 /// The mean of every training target pixel (background included): the constant baseline.
 core::Result<double> TrainingMean(const std::filesystem::path& dir) {
@@ -325,31 +321,32 @@ int RunEvaluate(std::vector<std::string> argv) {
   const bool per_grasp = args.Flag("--per-grasp");
   args.Number("--centre-weight", cli::Bounds::AtLeast(0), &stiffness_params.centre_weight);
   args.Int("--threads", 1, 256, &threads);
-  if (const auto error = args.Finish()) return Fail(error->message);
+  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
   if (train_data.empty() && !std::isfinite(constant)) {
-    return Fail("the constant baseline needs --train-data DIR (its mean) or --constant C");
+    return Fail(kCommand,
+                "the constant baseline needs --train-data DIR (its mean) or --constant C");
   }
   models::SetTorchThreads(threads);
   cv::setNumThreads(threads);
 
   auto model = models::StiffnessModel::Load(model_path);
-  if (!model.ok()) return Fail(model.error().message);
+  if (!model.ok()) return Fail(kCommand, model.error().message);
   // --compare: a second model whose planner runs on the same scenes (paired with the first's).
   std::optional<models::StiffnessModel> compared;
   if (!compare_path.empty()) {
     auto loaded = models::StiffnessModel::Load(compare_path);
-    if (!loaded.ok()) return Fail(loaded.error().message);
+    if (!loaded.ok()) return Fail(kCommand, loaded.error().message);
     compared.emplace(std::move(loaded).value());
   }
   auto val = models::SceneDataset::Open(data);
-  if (!val.ok()) return Fail(val.error().message);
+  if (!val.ok()) return Fail(kCommand, val.error().message);
   if (!std::isfinite(constant)) {
     auto mean = TrainingMean(train_data);
-    if (!mean.ok()) return Fail(mean.error().message);
+    if (!mean.ok()) return Fail(kCommand, mean.error().message);
     constant = mean.value();
   }
   auto spec = SpecFromIndex(val.value().index());
-  if (!spec.ok()) return Fail(spec.error().message);
+  if (!spec.ok()) return Fail(kCommand, spec.error().message);
 
   const int n = max_scenes > 0 ? std::min(max_scenes, val.value().size()) : val.value().size();
   const int n_grasp = std::min(grasp_scenes, n);
@@ -359,11 +356,11 @@ int RunEvaluate(std::vector<std::string> argv) {
   StrategyStats fge, stiff, oracle, stiff_compared;
   std::map<std::string, CategoryError> by_category;
   int skipped = 0, mismatched = 0;
-  sim::ProgressBar bar("evaluating", n);
+  cli::ProgressBar bar("evaluating", n);
   for (int i = 0; i < n; ++i) {
     bar.Update(i);
     auto sample = val.value().Load(i);
-    if (!sample.ok()) return Fail(sample.error().message);
+    if (!sample.ok()) return Fail(kCommand, sample.error().message);
     const models::SceneSample& s = sample.value();
     const auto t0 = std::chrono::steady_clock::now();
     auto scene = core::Preprocess(s.depth, s.camera);
@@ -372,8 +369,7 @@ int RunEvaluate(std::vector<std::string> argv) {
       continue;
     }
     const cv::Mat1f predicted = model.value().PredictScene(scene.value());
-    predict_ms.push_back(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    predict_ms.push_back(MillisecondsSince(t0));
     const cv::Mat1f predicted_compared =
         compared ? compared->PredictScene(scene.value()) : cv::Mat1f();
     const cv::Mat1f constant_map(s.stiffness.size(), static_cast<float>(constant));
@@ -398,7 +394,7 @@ int RunEvaluate(std::vector<std::string> argv) {
 
     // Grasps: the same scene rebuilt exactly (GenerateScene is deterministic in its seed).
     auto generated = sim::GenerateScene(spec.value(), val.value().entry(i).scene_seed);
-    if (!generated.ok()) return Fail(generated.error().message);
+    if (!generated.ok()) return Fail(kCommand, generated.error().message);
     const sim::GeneratedScene& g = generated.value();
     if (cv::norm(g.views.labels, s.labels, cv::NORM_INF) != 0) {
       ++mismatched;  // the dataset was not made with these parameters: skip its grasps
@@ -406,7 +402,7 @@ int RunEvaluate(std::vector<std::string> argv) {
     }
     AddCategoryErrors(g.scene, s.labels, s.stiffness, predicted, &by_category);
     auto raycaster = sim::SceneRaycaster::Build(g.scene);
-    if (!raycaster.ok()) return Fail(raycaster.error().message);
+    if (!raycaster.ok()) return Fail(kCommand, raycaster.error().message);
     const Eigen::Isometry3d& world_from_camera = spec.value().render.world_from_camera;
     // The service's engine plans, with contacts inside the bin (the walls stay obstacles) and
     // the maps already computed above; planning and execution share one gripper.

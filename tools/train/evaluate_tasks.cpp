@@ -11,6 +11,7 @@
 
 #include "service/cli/args.h"
 #include "service/cli/files.h"
+#include "service/cli/progress.h"
 #include "service/codec/json_codec.h"
 #include "service/core/fge_deformability.h"
 #include "service/engine/engine.h"
@@ -20,9 +21,9 @@
 #include "service/segmentation/instance_metrics.h"
 #include "sim/dataset/scene_gen.h"
 #include "sim/grasp/execute.h"
-#include "sim/progress.h"
 #include "sim/render/render.h"
 #include "tools/train/bootstrap.h"
+#include "tools/train/cli_common.h"
 
 namespace softgrasp::tools {
 namespace {
@@ -45,12 +46,7 @@ constexpr int kMaxFailuresInARow = 3;
 /// The workspace ROI's margin inside the bin walls, pixels.
 constexpr int kBinMarginPx = 3;
 
-int Fail(const std::string& message) {
-  std::cerr << "softgrasp-train evaluate-tasks: " << message << "\n";
-  return 2;
-}
-
-json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+constexpr std::string_view kCommand = "evaluate-tasks";
 
 enum class Task { kClutter, kBrushes, kObstacles };
 
@@ -585,7 +581,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
   args.Int("--threads", 1, 256, &threads);
   args.Int("--stroke-mm", 10, 300, &stroke_mm);
   const bool per_grasp = args.Flag("--per-grasp");
-  if (const auto error = args.Finish()) return Fail(error->message);
+  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
   core::Gripper gripper;  // planning and execution: the same one
   gripper.opening_stroke_m = stroke_mm * 1e-3;
   std::vector<Task> tasks;
@@ -599,8 +595,8 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     } else if (name == "obstacles") {
       tasks.push_back(Task::kObstacles);
     } else {
-      return Fail("--tasks takes clutter, brushes and obstacles, comma-separated; got '" + name +
-                  "'");
+      return Fail(kCommand, "--tasks takes clutter, brushes and obstacles, comma-separated; got '" +
+                                name + "'");
     }
     start = comma + 1;
   }
@@ -614,9 +610,9 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
       if (!cli::ParseNumber(openings_text.substr(start, comma - start), &f) || !(f > 0 && f <= 1) ||
           (!deformability.opening_fractions.empty() &&
            !(f > deformability.opening_fractions.back()))) {
-        return Fail(
-            "--openings takes increasing fractions of the stroke in (0, 1], "
-            "comma-separated");
+        return Fail(kCommand,
+                    "--openings takes increasing fractions of the stroke in (0, 1], "
+                    "comma-separated");
       }
       deformability.opening_fractions.push_back(f);
       start = comma + 1;
@@ -627,12 +623,12 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
   cv::setNumThreads(threads);
   Models models{{}, deformability};
   auto segmentation = models::SegmentationModel::Load(segmentation_path);
-  if (!segmentation.ok()) return Fail(segmentation.error().message);
+  if (!segmentation.ok()) return Fail(kCommand, segmentation.error().message);
   models.loaded.segmentation =
       std::make_shared<const models::SegmentationModel>(std::move(segmentation).value());
   if (!stiffness_path.empty()) {
     auto loaded = models::StiffnessModel::Load(stiffness_path);
-    if (!loaded.ok()) return Fail(loaded.error().message);
+    if (!loaded.ok()) return Fail(kCommand, loaded.error().message);
     models.loaded.stiffness =
         std::make_shared<const models::StiffnessModel>(std::move(loaded).value());
   }
@@ -654,13 +650,13 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     std::vector<Stats> stats(planners.size());
     int used = 0, skipped = 0;
     TargetSkips target_skips;
-    sim::ProgressBar bar(std::string(TaskName(task)) + " scenes", wanted);
+    cli::ProgressBar bar(std::string(TaskName(task)) + " scenes", wanted);
     for (int i = 0; used < wanted && i < 5 * wanted + 10; ++i) {
       bar.Update(used);
       const std::uint64_t scene_seed =
           sim::SceneSeed(seed + static_cast<int>(task) * 1000003u, i, sim::ShapeSplit::kVal);
       auto generated = sim::GenerateScene(spec, scene_seed);
-      if (!generated.ok()) return Fail(generated.error().message);
+      if (!generated.ok()) return Fail(kCommand, generated.error().message);
       const sim::GeneratedScene& g = generated.value();
       int target_id = 0;
       cv::Mat1b target_mask;
@@ -674,7 +670,7 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
         target_mask = g.views.labels == target_id;
       }
       auto raycaster = sim::SceneRaycaster::Build(g.scene);
-      if (!raycaster.ok()) return Fail(raycaster.error().message);
+      if (!raycaster.ok()) return Fail(kCommand, raycaster.error().message);
       for (std::size_t p = 0; p < planners.size(); ++p) {
         const Plan plan = RunPlanner(planners[p], g.views.depth, spec.render.camera, roi,
                                      target_mask, models, gripper);
@@ -698,12 +694,12 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     }
     if (task == Task::kClutter && bins > 0) {
       std::vector<ClearingStats> clearing(planners.size());
-      sim::ProgressBar bin_bar("bin clearing", bins);
+      cli::ProgressBar bin_bar("bin clearing", bins);
       for (int b = 0; b < bins; ++b) {
         bin_bar.Update(b);
         auto generated =
             sim::GenerateScene(spec, sim::SceneSeed(seed + 77u, b, sim::ShapeSplit::kVal));
-        if (!generated.ok()) return Fail(generated.error().message);
+        if (!generated.ok()) return Fail(kCommand, generated.error().message);
         for (std::size_t p = 0; p < planners.size(); ++p) {
           ClearBin(generated.value(), spec, planners[p], models, gripper, max_attempts,
                    &clearing[p]);
@@ -726,7 +722,9 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
   const std::string text = out.dump(2);
   std::cout << text << std::endl;
   if (!out_path.empty()) {
-    if (const auto error = cli::WriteFile(out_path, text + "\n")) return Fail(error->message);
+    if (const auto error = cli::WriteFile(out_path, text + "\n")) {
+      return Fail(kCommand, error->message);
+    }
   }
   return 0;
 }

@@ -14,12 +14,13 @@
 
 #include "service/cli/args.h"
 #include "service/cli/files.h"
+#include "service/cli/progress.h"
 #include "service/gqcnn/clearance.h"
 #include "service/models/gqcnn_model.h"
 #include "service/models/gqcnn_network.h"
 #include "service/models/network.h"
 #include "service/models/stiffness_model.h"
-#include "sim/progress.h"
+#include "tools/train/cli_common.h"
 #include "tools/train/gqcnn_metrics.h"
 #include "train/gqcnn_trainer.h"
 #include "train/trainer.h"
@@ -72,14 +73,8 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-int Fail(const std::string& message) {
-  std::cerr << "softgrasp-train: " << message << "\n";
-  return 2;
-}
-
-int FailError(const core::Error& e) {
-  return Fail(e.message + (e.field.empty() ? "" : " [" + e.field + "]"));
-}
+// Its messages name no command: "softgrasp-train: MESSAGE".
+constexpr std::string_view kCommand = "";
 
 void ReadNetworkOptions(cli::Args& args, models::GqcnnNetConfig* c) {
   args.Int("--conv1-channels", 1, 1024, &c->conv1_channels);
@@ -98,9 +93,9 @@ void ReadNetworkOptions(cli::Args& args, models::GqcnnNetConfig* c) {
 
 core::Result<models::GqcnnSet> Load(const std::vector<std::string>& dirs) {
   std::vector<fs::path> paths(dirs.begin(), dirs.end());
-  std::unique_ptr<sim::ProgressBar> bar;
+  std::unique_ptr<cli::ProgressBar> bar;
   auto set = models::LoadGqcnnSet(paths, [&](int done, int total) {
-    if (!bar) bar = std::make_unique<sim::ProgressBar>("loading shards", total);
+    if (!bar) bar = std::make_unique<cli::ProgressBar>("loading shards", total);
     bar->Update(done);
   });
   bar.reset();
@@ -145,32 +140,30 @@ int RunGqcnnTrain(std::vector<std::string> argv) {
   o.resume = args.Flag("--resume");
   if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
   if (has_steps && has_epochs) args.Fail("give --steps or --epochs, not both", "--steps");
-  if (const auto error = args.Finish()) return Fail(error->message);
+  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
   if (has_steps) o.epochs = 0;
   o.out = out;
 
   models::SetTorchThreads(threads);
   const auto t0 = std::chrono::steady_clock::now();
   auto set = Load(data);
-  if (!set.ok()) return FailError(set.error());
+  if (!set.ok()) return FailError(kCommand, set.error());
   std::cout << "loaded " << set.value().size() << " grasps (" << set.value().positives
             << " positive), " << set.value().images() << " images, "
-            << set.value().object_names.size() << " objects in "
-            << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()
+            << set.value().object_names.size() << " objects in " << SecondsSince(t0)
             << " s; threads " << threads << std::endl;
 
   const bool tty = isatty(STDERR_FILENO) != 0;
-  std::unique_ptr<sim::ProgressBar> bar;
+  std::unique_ptr<cli::ProgressBar> bar;
   const auto t_train = std::chrono::steady_clock::now();
   int first_step = -1;
   auto report = models::TrainGqcnn(
       o, set.value(),
       [&](const models::GqcnnStepRecord& r, const models::GqcnnValidation* v, int total) {
-        if (!bar) bar = std::make_unique<sim::ProgressBar>("training", total);
+        if (!bar) bar = std::make_unique<cli::ProgressBar>("training", total);
         if (first_step < 0) first_step = r.step;
         bar->Update(r.step);
-        const double s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t_train).count();
+        const double s = SecondsSince(t_train);
         const double per_step = s / (r.step - first_step + 1);
         if ((!tty && (r.step % 100 == 0 || r.step == total)) || v != nullptr) {
           std::printf("step %d/%d  loss %.4f  acc %.3f  lr %.2e  %.0f crops/s  eta %.1f min",
@@ -185,7 +178,7 @@ int RunGqcnnTrain(std::vector<std::string> argv) {
         }
       });
   bar.reset();
-  if (!report.ok()) return FailError(report.error());
+  if (!report.ok()) return FailError(kCommand, report.error());
   const auto& rep = report.value();
   std::cout << "trained steps " << rep.start_step << " -> " << rep.end_step << " of "
             << rep.total_steps << " in " << rep.seconds << " s (" << rep.crops_per_second
@@ -325,37 +318,39 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
       }
     }
   }
-  if (const auto error = args.Finish()) return Fail(error->message);
+  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
 
   models::SetTorchThreads(threads);
   auto model = models::GqcnnModel::Load(model_path);
-  if (!model.ok()) return FailError(model.error());
+  if (!model.ok()) return FailError(kCommand, model.error());
   const json& card = model.value().Card();
   auto baseline = models::LogisticBaseline::FromJson(card.value("baseline", json::object()));
-  if (!baseline.ok()) return FailError(baseline.error());
+  if (!baseline.ok()) return FailError(kCommand, baseline.error());
   const bool takes_clearances = model.value().takes_clearances();
   core::Result<models::GqcnnSet> cal_set = models::GqcnnSet{};
   SetScores cal_scores;
   if (!calibration.empty()) {
     cal_set = Load(calibration);
-    if (!cal_set.ok()) return FailError(cal_set.error());
-    if (takes_clearances && !cal_set.value().clearances_measured) return Fail(kPredateClearances);
+    if (!cal_set.ok()) return FailError(kCommand, cal_set.error());
+    if (takes_clearances && !cal_set.value().clearances_measured) {
+      return Fail(kCommand, kPredateClearances);
+    }
     cal_scores = ScoreSet(model.value(), baseline.value(), cal_set.value());
     policy.calibration = &cal_set.value();
     policy.calibration_scores = &cal_scores;
   }
   auto set = Load(data);
-  if (!set.ok()) return FailError(set.error());
+  if (!set.ok()) return FailError(kCommand, set.error());
   const models::GqcnnSet& s = set.value();
-  if (takes_clearances && !s.clearances_measured) return Fail(kPredateClearances);
+  if (takes_clearances && !s.clearances_measured) return Fail(kCommand, kPredateClearances);
   if (policy.calibration && s.clearances_measured != policy.calibration->clearances_measured) {
-    return Fail("--calibrate-on data and --data differ in whether they carry gripper clearances");
+    return Fail(kCommand,
+                "--calibrate-on data and --data differ in whether they carry gripper clearances");
   }
 
   const auto t0 = std::chrono::steady_clock::now();
   const SetScores scores = ScoreSet(model.value(), baseline.value(), s);
-  const double predict_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double predict_s = SecondsSince(t0);
   if (!predictions_out.empty()) {
     std::string csv = "record,object,image,label,p_gqcnn,p_logistic,admitted\n";
     for (std::size_t i = 0; i < s.size(); ++i) {
@@ -365,7 +360,7 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
              (s.clearances_measured ? std::to_string(int{s.admitted[i]}) : "") + "\n";
     }
     if (auto error = cli::WriteFile(predictions_out, csv, cli::Parents::kCreate)) {
-      return FailError(*error);
+      return FailError(kCommand, *error);
     }
   }
   // One classifier's figures at its threshold(s), which are written beside them.
@@ -459,7 +454,8 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
           {"metrics", score(&SetScores::logistic_gated)}};
     }
   } catch (const std::invalid_argument&) {
-    return Fail(policy.cross
+    return Fail(kCommand,
+                policy.cross
                     ? "--cross-calibrate: every --data set's others need grasps that "
                       "succeed and grasps that fail"
                     : "--calibrate-on data needs grasps that succeed and grasps that fail");
@@ -471,7 +467,7 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
   const std::string text = result.dump(2) + "\n";
   if (!json_out.empty()) {
     if (auto error = cli::WriteFile(json_out, text, cli::Parents::kCreate))
-      return FailError(*error);
+      return FailError(kCommand, *error);
   }
   std::cout << text;
   return 0;
@@ -486,23 +482,25 @@ int RunGqcnnCalibrate(std::vector<std::string> argv) {
   args.Required("--out", "OUT", &out);
   args.Int("--threads", 1, 256, &threads);
   if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
-  if (const auto error = args.Finish()) return Fail(error->message);
+  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
 
   models::SetTorchThreads(threads);
   auto model = models::GqcnnModel::Load(model_path);
-  if (!model.ok()) return FailError(model.error());
+  if (!model.ok()) return FailError(kCommand, model.error());
   auto raw = models::LoadGqcnnNet(model_path);  // written back as read (weights unflushed)
-  if (!raw.ok()) return FailError(raw.error());
+  if (!raw.ok()) return FailError(kCommand, raw.error());
   auto set = Load(data);
-  if (!set.ok()) return FailError(set.error());
+  if (!set.ok()) return FailError(kCommand, set.error());
   const models::GqcnnSet& s = set.value();
-  if (model.value().takes_clearances() && !s.clearances_measured) return Fail(kPredateClearances);
+  if (model.value().takes_clearances() && !s.clearances_measured) {
+    return Fail(kCommand, kPredateClearances);
+  }
   const std::vector<float> p = PredictSet(model.value(), s);
   ThresholdChoice choice;
   try {
     choice = ChooseBalancedAccuracyThreshold(s.labels, p);
   } catch (const std::invalid_argument&) {
-    return Fail("--data needs grasps that succeed and grasps that fail");
+    return Fail(kCommand, "--data needs grasps that succeed and grasps that fail");
   }
   json card = raw.value().card;
   card["decision_threshold"] = {
@@ -522,7 +520,7 @@ int RunGqcnnCalibrate(std::vector<std::string> argv) {
     models::SaveGqcnnNet(out, raw.value().net, raw.value().config, raw.value().normalisation, card);
   } catch (const std::exception& e) {
     const std::string what = e.what();
-    return Fail("cannot write " + out + ": " + what.substr(0, what.find('\n')));
+    return Fail(kCommand, "cannot write " + out + ": " + what.substr(0, what.find('\n')));
   }
   // The card beside the model: the one beside --model when there is one (it may carry notes
   // added after training), with the threshold and the new file's size.
@@ -540,7 +538,7 @@ int RunGqcnnCalibrate(std::vector<std::string> argv) {
   side["model_file_bytes"] = fs::file_size(out);
   if (auto error = cli::WriteFile(models::GqcnnCardPath(out).string(), side.dump(2) + "\n",
                                   cli::Parents::kCreate)) {
-    return FailError(*error);
+    return FailError(kCommand, *error);
   }
   std::cout << "decision threshold " << choice.threshold << " (balanced accuracy "
             << choice.balanced_accuracy << " on " << s.size() << " grasps of "
@@ -559,13 +557,13 @@ int RunGqcnnBench(std::vector<std::string> argv) {
   args.Int("--threads", 1, 256, &threads);
   args.Int("--repeats", 1, 1000, &repeats);
   args.Int("--batch", 1, 4096, &batch);
-  if (const auto error = args.Finish()) return Fail(error->message);
+  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
   models::SetTorchThreads(threads);
   const fs::path tmp =
       fs::temp_directory_path() / ("gqcnn-bench-" + std::to_string(getpid()) + ".pt");
   if (!model_path.empty()) {
     auto loaded = models::LoadGqcnnNet(model_path);
-    if (!loaded.ok()) return FailError(loaded.error());
+    if (!loaded.ok()) return FailError(kCommand, loaded.error());
     config = loaded.value().config;
   } else {
     models::GqcnnNet net(config);
@@ -575,7 +573,7 @@ int RunGqcnnBench(std::vector<std::string> argv) {
   }
   auto model = models::GqcnnModel::Load(model_path);
   if (model_path == tmp.string()) fs::remove(tmp);
-  if (!model.ok()) return FailError(model.error());
+  if (!model.ok()) return FailError(kCommand, model.error());
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<float> depth(0.55f, 0.7f);
   json result = {{"model", model.value().description()}, {"threads", threads}};
@@ -594,8 +592,7 @@ int RunGqcnnBench(std::vector<std::string> argv) {
     for (int r = 0; r < repeats; ++r) {
       const auto t0 = std::chrono::steady_clock::now();
       (void)model.value().Predict(crops, depths, clearances);
-      ms.push_back(
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      ms.push_back(MillisecondsSince(t0));
     }
     std::sort(ms.begin(), ms.end());
     result["predict_ms_median"][std::to_string(n)] = ms[ms.size() / 2];
@@ -619,7 +616,7 @@ int RunGqcnnBench(std::vector<std::string> argv) {
       loss.backward();
       opt.step();
     }
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double s = SecondsSince(t0);
     result["train_crops_per_second"] = steps * batch / s;
     result["train_batch"] = batch;
     result["forward_macs_per_crop"] = models::GqcnnForwardMacs(c);

@@ -20,6 +20,7 @@
 #include "sim/physics/drop.h"
 #include "sim/render/render.h"
 #include "tools/train/bootstrap.h"
+#include "tools/train/cli_common.h"
 
 namespace softgrasp::tools {
 namespace {
@@ -36,12 +37,7 @@ constexpr double kObjectDensityKgM3 = 500.0;
 // (every planner closes on the walls' rims otherwise, and the rims are not objects).
 constexpr int kBinMarginPx = 3;
 
-int Fail(const std::string& message) {
-  std::cerr << "softgrasp-train gqcnn-picks: " << message << "\n";
-  return 2;
-}
-
-json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+constexpr std::string_view kCommand = "gqcnn-picks";
 
 struct Planner {
   std::string name;              // "fge" or "gqcnn:<model file stem>"
@@ -204,19 +200,21 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
   args.Number("--stroke-mm", cli::Bounds::Closed(20, 150), &stroke_mm);
   args.Text("--out", &out_path);
   args.Text("--records", &records_path);
-  if (auto error = args.Finish()) return Fail(error->message);
-  if (model_paths.empty()) return Fail("--model FILE is required (repeat it to compare models)");
+  if (auto error = args.Finish()) return Fail(kCommand, error->message);
+  if (model_paths.empty()) {
+    return Fail(kCommand, "--model FILE is required (repeat it to compare models)");
+  }
   if (single_scenes > 0 && meshes_dir.empty()) {
-    return Fail("--single-scenes needs --meshes DIR (held-out OBJ/PLY/STL files)");
+    return Fail(kCommand, "--single-scenes needs --meshes DIR (held-out OBJ/PLY/STL files)");
   }
   if (single_scenes + clutter_scenes == 0) {
-    return Fail("nothing to do: give --single-scenes N and/or --clutter-scenes N");
+    return Fail(kCommand, "nothing to do: give --single-scenes N and/or --clutter-scenes N");
   }
 
   std::vector<Planner> planners = {{"fge", "fge", {}}};
   for (const std::string& path : model_paths) {
     auto model = models::GqcnnModel::Load(path);
-    if (!model.ok()) return Fail(model.error().message);
+    if (!model.ok()) return Fail(kCommand, model.error().message);
     Planner p{"gqcnn:" + fs::path(path).stem().string(), "gqcnn", {}};
     p.models.gqcnn = std::make_shared<const models::GqcnnModel>(std::move(model).value());
     planners.push_back(p);
@@ -242,7 +240,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
       const std::string ext = entry.path().extension().string();
       if (ext == ".obj" || ext == ".ply" || ext == ".stl") files.push_back(entry.path());
     }
-    if (error) return Fail("cannot list " + meshes_dir + ": " + error.message());
+    if (error) return Fail(kCommand, "cannot list " + meshes_dir + ": " + error.message());
     std::sort(files.begin(), files.end());
     for (const fs::path& file : files) {
       auto object = HeldOutObject(file);
@@ -254,7 +252,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
       heldout.push_back(object.value());
       heldout_names.push_back(file.stem().string());
     }
-    if (heldout.empty()) return Fail("no usable mesh in " + meshes_dir);
+    if (heldout.empty()) return Fail(kCommand, "no usable mesh in " + meshes_dir);
   }
 
   core::Gripper gripper;  // the datasets' (a 5 cm stroke) unless --stroke-mm says otherwise
@@ -292,11 +290,13 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
       const std::uint64_t scene_seed =
           sim::SceneSeed(static_cast<std::uint64_t>(seed), i, sim::ShapeSplit::kVal);
       auto dropped = sim::DropObjects(table, {heldout[object]}, scene_seed);
-      if (!dropped.ok()) return Fail(heldout_names[object] + ": " + dropped.error().message);
+      if (!dropped.ok()) {
+        return Fail(kCommand, heldout_names[object] + ": " + dropped.error().message);
+      }
       sim::SimScene scene = std::move(dropped.value().scene);
       scene.seed = scene_seed;
       auto raycaster = sim::SceneRaycaster::Build(scene);
-      if (!raycaster.ok()) return Fail(raycaster.error().message);
+      if (!raycaster.ok()) return Fail(kCommand, raycaster.error().message);
       sim::RenderOptions r = render;
       r.noise.seed = scene_seed;
       const sim::RenderedViews views = sim::Render(raycaster.value(), r);
@@ -320,7 +320,7 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
       const std::uint64_t scene_seed =
           sim::SceneSeed(static_cast<std::uint64_t>(seed) + 1000003u, i, sim::ShapeSplit::kVal);
       auto generated = sim::GenerateScene(spec, scene_seed);
-      if (!generated.ok()) return Fail(generated.error().message);
+      if (!generated.ok()) return Fail(kCommand, generated.error().message);
       sim::RenderOptions r = render;
       r.noise.seed = scene_seed;
       set.scene_objects.push_back(std::to_string(generated.value().scene.objects.size()) +
@@ -336,14 +336,14 @@ int RunGqcnnPicks(std::vector<std::string> argv) {
   report["sets"] = sets;
   if (!records_path.empty()) {
     if (auto error = cli::WriteFile(records_path, records, cli::Parents::kCreate)) {
-      return Fail(error->message);
+      return Fail(kCommand, error->message);
     }
   }
   const std::string text = report.dump(1) + "\n";
   if (out_path.empty()) {
     std::cout << text;
   } else if (auto error = cli::WriteFile(out_path, text, cli::Parents::kCreate)) {
-    return Fail(error->message);
+    return Fail(kCommand, error->message);
   }
   return 0;
 }

@@ -9,9 +9,10 @@
 #include <sstream>
 
 #include "service/cli/args.h"
+#include "service/cli/progress.h"
 #include "service/models/segmentation_model.h"
 #include "service/models/stiffness_model.h"
-#include "sim/progress.h"
+#include "tools/train/cli_common.h"
 #include "train/dataset.h"
 #include "train/segmentation_trainer.h"
 #include "train/trainer.h"
@@ -45,14 +46,8 @@ const char* const kSegmentationUsage =
 
 namespace {
 
-int Fail(const std::string& message) {
-  std::cerr << "softgrasp-train: " << message << "\n";
-  return 2;
-}
-
-int FailError(const core::Error& e) {
-  return Fail(e.message + (e.field.empty() ? "" : " [" + e.field + "]"));
-}
+// Its messages name no command: "softgrasp-train: MESSAGE".
+constexpr std::string_view kCommand = "";
 
 std::vector<std::string> SplitComma(const std::string& s) {
   std::vector<std::string> out;
@@ -102,33 +97,32 @@ int RunSegmentationTrain(std::vector<std::string> argv) {
   o.resume = args.Flag("--resume");
   std::string init;
   if (args.Text("--init", &init)) o.init = init;
-  if (const auto error = args.Finish()) return Fail(error->message);
+  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
   const int div = 1 << o.network.levels;
   if (o.network.width % div != 0 || o.network.height % div != 0) {
-    return Fail("--width and --height must be multiples of 2^levels = " + std::to_string(div));
+    return Fail(kCommand,
+                "--width and --height must be multiples of 2^levels = " + std::to_string(div));
   }
 
   models::SetTorchThreads(threads);
   auto datasets = OpenAll(data);
-  if (!datasets.ok()) return FailError(datasets.error());
+  if (!datasets.ok()) return FailError(kCommand, datasets.error());
   int total = 0;
   for (const auto& d : datasets.value())
     total += max_scenes > 0 ? std::min(max_scenes, d.size()) : d.size();
   const auto t0 = std::chrono::steady_clock::now();
-  auto load_bar = std::make_unique<sim::ProgressBar>("loading", total);
+  auto load_bar = std::make_unique<cli::ProgressBar>("loading", total);
   auto set =
       models::BuildSegmentationSet(datasets.value(), cv::Size(o.network.width, o.network.height),
                                    max_scenes, [&](int done, int) { load_bar->Update(done); });
   load_bar.reset();
-  if (!set.ok()) return FailError(set.error());
+  if (!set.ok()) return FailError(kCommand, set.error());
   std::cout << "loaded " << set.value().count() << " scenes (" << set.value().skipped
-            << " skipped) in "
-            << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()
-            << " s; mean object deformability " << set.value().mean_object_deformability
-            << "; threads " << threads << std::endl;
+            << " skipped) in " << SecondsSince(t0) << " s; mean object deformability "
+            << set.value().mean_object_deformability << "; threads " << threads << std::endl;
 
   const bool tty = isatty(STDERR_FILENO) != 0;
-  sim::ProgressBar bar("training", o.steps);
+  cli::ProgressBar bar("training", o.steps);
   const auto t_train = std::chrono::steady_clock::now();
   int first_step = -1;
   auto report = models::TrainSegmentation(
@@ -136,8 +130,7 @@ int RunSegmentationTrain(std::vector<std::string> argv) {
         if (first_step < 0) first_step = r.step;
         bar.Update(r.step);
         if (!tty && (r.step % 50 == 0 || r.step == steps)) {
-          const double s =
-              std::chrono::duration<double>(std::chrono::steady_clock::now() - t_train).count();
+          const double s = SecondsSince(t_train);
           const double per_step = s / (r.step - first_step + 1);
           std::printf(
               "step %d/%d  total %.4f  fg %.4f  centre %.5f  offset %.4f  def %.4f  1-ssim %.4f"
@@ -147,7 +140,7 @@ int RunSegmentationTrain(std::vector<std::string> argv) {
           std::fflush(stdout);
         }
       });
-  if (!report.ok()) return FailError(report.error());
+  if (!report.ok()) return FailError(kCommand, report.error());
   std::cout << "trained steps " << report.value().start_step << " -> " << report.value().end_step
             << " in " << report.value().seconds << " s; model " << o.out.string() << ", checkpoint "
             << models::CheckpointPath(o.out).string() << ", loss curve "

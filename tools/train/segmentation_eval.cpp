@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "service/cli/args.h"
+#include "service/cli/progress.h"
 #include "service/core/metrics.h"
 #include "service/core/preprocess.h"
 #include "service/models/segmentation_model.h"
@@ -19,7 +20,7 @@
 #include "service/segmentation/fuse.h"
 #include "service/segmentation/instance_metrics.h"
 #include "service/segmentation/pcl_segmenter.h"
-#include "sim/progress.h"
+#include "tools/train/cli_common.h"
 #include "tools/train/segmentation_cli.h"
 #include "train/dataset.h"
 
@@ -29,16 +30,7 @@ namespace {
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-int Fail(const std::string& message) {
-  std::cerr << "softgrasp-train evaluate-segmentation: " << message << "\n";
-  return 2;
-}
-
-json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-
-double Ms(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration<double, std::milli>(b - a).count();
-}
+constexpr std::string_view kCommand = "evaluate-segmentation";
 
 double Median(std::vector<double> v) {
   if (v.empty()) return std::nan("");
@@ -203,12 +195,12 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
               &fuse.extend_min_inside_fraction);
   fuse.confident_score = static_cast<float>(confident);
   fuse.geometry_score = static_cast<float>(geometry);
-  if (const auto error = args.Finish()) return Fail(error->message);
+  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
   models::SetTorchThreads(threads);
   std::optional<models::SegmentationModel> model;
   if (model_path != "none") {
     auto loaded = models::SegmentationModel::Load(model_path);
-    if (!loaded.ok()) return Fail(loaded.error().message);
+    if (!loaded.ok()) return Fail(kCommand, loaded.error().message);
     model.emplace(std::move(loaded.value()));
   }
 
@@ -227,13 +219,13 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
   while (std::getline(dirs, dir, ',')) {
     if (dir.empty()) continue;
     auto ds = models::SceneDataset::Open(dir);
-    if (!ds.ok()) return Fail(ds.error().message);
+    if (!ds.ok()) return Fail(kCommand, ds.error().message);
     const int count = max_scenes > 0 ? std::min(max_scenes, ds.value().size()) : ds.value().size();
     SetResult r;
-    sim::ProgressBar bar("evaluating " + std::filesystem::path(dir).filename().string(), count);
+    cli::ProgressBar bar("evaluating " + std::filesystem::path(dir).filename().string(), count);
     for (int i = 0; i < count; ++i) {
       auto sample = ds.value().Load(i);
-      if (!sample.ok()) return Fail(sample.error().message);
+      if (!sample.ok()) return Fail(kCommand, sample.error().message);
       const models::SceneSample& s = sample.value();
       auto scene = core::Preprocess(s.depth, s.camera);
       bar.Update(i + 1);
@@ -253,9 +245,9 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
       }
       const auto t0 = Clock::now();
       auto pcl = segmentation::SegmentPcl(scene.value(), s.camera);
-      const auto t1 = Clock::now();
-      if (!pcl.ok()) return Fail(pcl.error().message);
-      r.pcl_ms.push_back(Ms(t0, t1));
+      const double pcl_ms = MillisecondsSince(t0);
+      if (!pcl.ok()) return Fail(kCommand, pcl.error().message);
+      r.pcl_ms.push_back(pcl_ms);
       r.pcl.Add(truth, pcl.value());
       all.pcl.Add(truth, pcl.value());
       cv::Mat1f def_baseline(s.labels.size(), 0.0f);
@@ -265,8 +257,7 @@ int RunSegmentationEvaluate(std::vector<std::string> argv) {
       if (model) {
         const auto t2 = Clock::now();
         const models::SegmentationOutput m = model->SegmentScene(scene.value(), grouping);
-        const auto t3 = Clock::now();
-        r.model_ms.push_back(Ms(t2, t3));
+        r.model_ms.push_back(MillisecondsSince(t2));
         r.model.Add(truth, m.instances);
         all.model.Add(truth, m.instances);
         r.model_def.Add(def_truth, m.deformability, s.labels, s.category_of_id);

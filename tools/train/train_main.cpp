@@ -17,9 +17,10 @@
 #include <vector>
 
 #include "service/cli/args.h"
+#include "service/cli/progress.h"
 #include "service/models/stiffness_model.h"
 #include "service/process/allocator.h"
-#include "sim/progress.h"
+#include "tools/train/cli_common.h"
 #include "tools/train/evaluate.h"
 #include "tools/train/evaluate_tasks.h"
 #include "tools/train/gqcnn_cli.h"
@@ -30,7 +31,9 @@
 
 namespace {
 
-using softgrasp::core::Error;
+using softgrasp::tools::Fail;
+using softgrasp::tools::FailError;
+using softgrasp::tools::SecondsSince;
 namespace models = softgrasp::models;
 namespace cli = softgrasp::cli;
 
@@ -70,14 +73,8 @@ constexpr const char* kUsage =
     "  simulator's outcome and its reason. --stroke-mm sets the gripper's opening stroke for\n"
     "  every planner and the simulator (default 50, the datasets' gripper).\n";
 
-int Fail(const std::string& message) {
-  std::cerr << "softgrasp-train: " << message << "\n";
-  return 2;
-}
-
-int FailError(const Error& e) {
-  return Fail(e.message + (e.field.empty() ? "" : " [" + e.field + "]"));
-}
+// Its messages name no command: "softgrasp-train: MESSAGE".
+constexpr std::string_view kCommand = "";
 
 int RunStiffness(std::vector<std::string> argv) {
   cli::Args args(std::move(argv));
@@ -101,43 +98,41 @@ int RunStiffness(std::vector<std::string> argv) {
   args.Number("--object-weight", cli::Bounds::Closed(0, 1000), &o.object_weight);
   args.Number("--lr", cli::Bounds::Above(0), &o.learning_rate);
   o.resume = args.Flag("--resume");
-  if (const auto error = args.Finish()) return Fail(error->message + "\n" + kUsage);
+  if (const auto error = args.Finish()) return Fail(kCommand, error->message + "\n" + kUsage);
 
   models::SetTorchThreads(threads);
   auto dataset = models::SceneDataset::Open(data);
-  if (!dataset.ok()) return FailError(dataset.error());
+  if (!dataset.ok()) return FailError(kCommand, dataset.error());
   const auto t0 = std::chrono::steady_clock::now();
-  std::unique_ptr<softgrasp::sim::ProgressBar> load_bar;
-  load_bar = std::make_unique<softgrasp::sim::ProgressBar>(
+  std::unique_ptr<cli::ProgressBar> load_bar;
+  load_bar = std::make_unique<cli::ProgressBar>(
       "loading",
       max_scenes > 0 ? std::min(max_scenes, dataset.value().size()) : dataset.value().size());
   auto set = models::BuildTrainingSet(dataset.value(), o.network.input_size, max_scenes,
                                       [&](int done, int) { load_bar->Update(done); });
   load_bar.reset();
-  if (!set.ok()) return FailError(set.error());
-  const double load_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!set.ok()) return FailError(kCommand, set.error());
+  const double load_s = SecondsSince(t0);
   std::cout << "loaded " << set.value().size() << " scenes (" << set.value().skipped
             << " skipped) in " << load_s << " s; mean target " << set.value().mean_target
             << "; threads " << threads << std::endl;
 
   const bool tty = isatty(STDERR_FILENO) != 0;
-  softgrasp::sim::ProgressBar bar("training", o.steps);
+  cli::ProgressBar bar("training", o.steps);
   const auto t_train = std::chrono::steady_clock::now();
   int first_step = -1;
   auto report = models::Train(o, set.value(), [&](const models::LossRecord& r, int total) {
     if (first_step < 0) first_step = r.step;
     bar.Update(r.step);
     if (!tty && (r.step % 50 == 0 || r.step == total)) {
-      const double s =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t_train).count();
+      const double s = SecondsSince(t_train);
       const double per_step = s / (r.step - first_step + 1);
       std::printf("step %d/%d  D %.4f  G_gan %.4f  L1 %.4f  %.2f s/step  eta %.0f min\n", r.step,
                   total, r.d_loss, r.g_gan, r.g_l1, per_step, per_step * (total - r.step) / 60.0);
       std::fflush(stdout);
     }
   });
-  if (!report.ok()) return FailError(report.error());
+  if (!report.ok()) return FailError(kCommand, report.error());
   std::cout << "trained steps " << report.value().start_step << " -> " << report.value().end_step
             << " in " << report.value().seconds << " s; model " << o.out.string() << ", checkpoint "
             << models::CheckpointPath(o.out).string() << ", loss curve "
@@ -148,7 +143,7 @@ int RunStiffness(std::vector<std::string> argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) return Fail(std::string("missing command\n") + kUsage);
+  if (argc < 2) return Fail(kCommand, std::string("missing command\n") + kUsage);
   const std::string command = argv[1];
   softgrasp::process::KeepFreedMemoryForReuse();  // training and evaluation allocate per step
   std::vector<std::string> args(argv + 2, argv + argc);
@@ -168,5 +163,5 @@ int main(int argc, char** argv) {
     std::cout << kUsage << softgrasp::tools::kSegmentationUsage << softgrasp::tools::kGqcnnUsage;
     return 0;
   }
-  return Fail("unknown command " + command + "\n" + kUsage);
+  return Fail(kCommand, "unknown command " + command + "\n" + kUsage);
 }

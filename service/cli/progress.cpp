@@ -1,11 +1,11 @@
-#include "sim/progress.h"
+#include "service/cli/progress.h"
 
 #include <unistd.h>
 
 #include <algorithm>
 #include <utility>
 
-namespace softgrasp::sim {
+namespace softgrasp::cli {
 
 ProgressBar::ProgressBar(std::string label, int total)
     : label_(std::move(label)), total_(std::max(total, 1)), enabled_(isatty(STDERR_FILENO) == 1) {}
@@ -28,4 +28,4 @@ void ProgressBar::Update(int done) {
   std::fflush(stderr);
 }
 
-}  // namespace softgrasp::sim
+}  // namespace softgrasp::cli

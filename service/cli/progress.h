@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <string>
 
-namespace softgrasp::sim {
+namespace softgrasp::cli {
 
 class ProgressBar {
  public:
@@ -19,4 +19,4 @@ class ProgressBar {
   int last_percent_ = -1;
 };
 
-}  // namespace softgrasp::sim
+}  // namespace softgrasp::cli
