@@ -9,7 +9,7 @@
 #include "service/core/status.h"
 #include "service/mesh/fractal.h"
 #include "service/mesh/mesh_io.h"
-#include "sim/array_tasks.h"
+#include "sim/tasks/array_tasks.h"
 
 namespace softgrasp::sim {
 

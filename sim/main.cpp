@@ -15,7 +15,7 @@
 #include "service/cli/progress.h"
 #include "service/io/depth_codec.h"
 #include "service/process/allocator.h"
-#include "sim/array_tasks.h"
+#include "sim/tasks/array_tasks.h"
 #include "sim/catalogue/catalogue.h"
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/user_objects.h"

@@ -12,7 +12,7 @@
 #include <string>
 
 #include "service/core/status.h"
-#include "sim/array_tasks.h"
+#include "sim/tasks/array_tasks.h"
 #include "sim/dataset/scene_gen.h"
 
 namespace softgrasp::sim {
@@ -23,7 +23,7 @@ struct DatasetParams {
   int shard_size = 100;  ///< scenes per shard folder; 1..100000
   SceneSpec spec;
   std::filesystem::path out_dir;
-  /// Task K of N makes only its part of the scenes and a partial index (sim/array_tasks.h);
+  /// Task K of N makes only its part of the scenes and a partial index (sim/tasks/array_tasks.h);
   /// merging the N partial indexes gives the index.json of one process. Default: the whole batch.
   ArrayTask task;
 };

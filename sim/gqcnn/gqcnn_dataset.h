@@ -25,7 +25,7 @@
 #include "service/core/status.h"
 #include "service/gqcnn/dataset_format.h"
 #include "service/mesh_grasps/mesh_grasp_analysis.h"
-#include "sim/array_tasks.h"
+#include "sim/tasks/array_tasks.h"
 #include "sim/render/render.h"
 
 namespace softgrasp::sim {
@@ -88,7 +88,7 @@ struct GqcnnDatasetParams {
   /// previews/crops.png (0 = none): depth about the grasp depth in grey, jaw ticks in cyan,
   /// a green (positive) or red frame.
   int preview_crops = 0;
-  /// Task K of N (array jobs, sim/array_tasks.h) makes only its part of the shards, with
+  /// Task K of N (array jobs, sim/tasks/array_tasks.h) makes only its part of the shards, with
   /// image numbers counted from 0 in that part, and writes index.task-K-of-N.json and
   /// skipped.task-K-of-N.json (resumable like a whole run); MergeGqcnnDatasetTasks renumbers the
   /// images and writes the index of one process. Only task 0 writes the preview.

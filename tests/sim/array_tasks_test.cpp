@@ -1,7 +1,7 @@
 // Array tasks: the split of a batch into N contiguous parts, the partial indexes, and their merge
 // into the index one process writes (byte for byte), with the errors a half-finished or mixed-up
 // array job gives.
-#include "sim/array_tasks.h"
+#include "sim/tasks/array_tasks.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "sim/array_tasks.h"
+#include "sim/tasks/array_tasks.h"
 
 #include <charconv>
 #include <map>
