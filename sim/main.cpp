@@ -15,7 +15,6 @@
 #include "service/cli/progress.h"
 #include "service/io/depth_codec.h"
 #include "service/process/allocator.h"
-#include "sim/tasks/array_tasks.h"
 #include "sim/catalogue/catalogue.h"
 #include "sim/dataset/dataset.h"
 #include "sim/dataset/user_objects.h"
@@ -23,6 +22,7 @@
 #include "sim/gqcnn/gqcnn_dataset.h"
 #include "sim/mesh_grasps_batch.h"
 #include "sim/robot/robot_cli.h"
+#include "sim/tasks/array_tasks.h"
 
 namespace {
 

@@ -12,8 +12,8 @@
 #include <string>
 
 #include "service/core/status.h"
-#include "sim/tasks/array_tasks.h"
 #include "sim/dataset/scene_gen.h"
+#include "sim/tasks/array_tasks.h"
 
 namespace softgrasp::sim {
 

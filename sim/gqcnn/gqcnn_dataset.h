@@ -25,8 +25,8 @@
 #include "service/core/status.h"
 #include "service/gqcnn/dataset_format.h"
 #include "service/mesh_grasps/mesh_grasp_analysis.h"
-#include "sim/tasks/array_tasks.h"
 #include "sim/render/render.h"
+#include "sim/tasks/array_tasks.h"
 
 namespace softgrasp::sim {
 
