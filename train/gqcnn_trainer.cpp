@@ -693,8 +693,11 @@ std::filesystem::path GqcnnAccuracyPngPath(const std::filesystem::path& out) {
   return p.replace_filename(out.stem().string() + "_accuracy.png");
 }
 
-core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const GqcnnSet& set,
-                                          const GqcnnProgress& progress) {
+namespace {
+
+/// The object-wise split the run trains and validates on, after the checks that the options and
+/// the data fit each other (clearances, factored labels, both classes in each part).
+core::Result<GqcnnSplit> CheckedSplit(const GqcnnTrainOptions& o, const GqcnnSet& set) {
   if (auto error = CheckOptions(o)) return *error;
   GqcnnSplit split = SplitByObject(set, o.validation_fraction, o.seed);
   if (o.network.clearance_inputs &&
@@ -735,37 +738,217 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
     return MakeError(ErrorCode::kInvalidArgument,
                      "a factored network needs each record's collision and quality labels", "data");
   }
+  return split;
+}
 
-  const auto n_train = static_cast<double>(split.train.size());
-  const int total_steps =
-      o.steps > 0 ? o.steps
-                  : static_cast<int>(std::min(1e8, std::ceil(o.epochs * n_train / o.batch)));
-  GqcnnTrainOptions opt = o;
-  opt.steps = total_steps;
-  if (opt.eval_every == 0) opt.eval_every = std::max(1, (total_steps + 19) / 20);
-  if (opt.checkpoint_every == 0) opt.checkpoint_every = opt.eval_every;
-  const int decay_steps =
-      std::max(1, static_cast<int>(std::lround(o.decay_every_epochs * n_train / o.batch)));
+/// Everything a run fixes from the options and the split before its first step.
+struct RunSetup {
+  GqcnnSplit split;
+  GqcnnTrainOptions opt;  ///< the options with steps, eval_every and checkpoint_every resolved
+  double n_train = 0;     ///< training records
+  int total_steps = 0;
+  int decay_steps = 1;  ///< steps between learning-rate decays
+  GqcnnNormalisation norm;
+  LogisticBaseline baseline;
+  json fingerprint;                               ///< what a checkpoint must match to be resumed
+  std::vector<std::size_t> positives, negatives;  ///< training records of each class
+  double train_rate = 0;                          ///< positive rate of the training records
+  torch::Tensor class_weights, collision_weights, quality_weights;
+};
 
-  const GqcnnNormalisation norm = ComputeNormalisation(set, split.train);
-  const LogisticBaseline baseline = FitLogisticBaseline(set, split.train);
-  const json fingerprint = RunFingerprint(opt, norm, split.train.size());
-  std::vector<std::size_t> positives, negatives;
-  for (const std::size_t i : split.train) (set.labels[i] ? positives : negatives).push_back(i);
-  const double train_rate = PositiveRate(set.labels, split.train);
-  const torch::Tensor class_weights = BalancedClassWeights(train_rate);
-  torch::Tensor collision_weights, quality_weights;
-  if (o.network.factored) {
-    collision_weights = BalancedClassWeights(PositiveRate(set.collision_free, split.train));
-    quality_weights = BalancedClassWeights(PositiveRate(set.quality_labels, split.train));
+RunSetup SetUpRun(const GqcnnTrainOptions& o, const GqcnnSet& set, GqcnnSplit split) {
+  RunSetup r;
+  r.split = std::move(split);
+  r.n_train = static_cast<double>(r.split.train.size());
+  r.total_steps = o.steps > 0
+                      ? o.steps
+                      : static_cast<int>(std::min(1e8, std::ceil(o.epochs * r.n_train / o.batch)));
+  r.opt = o;
+  r.opt.steps = r.total_steps;
+  if (r.opt.eval_every == 0) r.opt.eval_every = std::max(1, (r.total_steps + 19) / 20);
+  if (r.opt.checkpoint_every == 0) r.opt.checkpoint_every = r.opt.eval_every;
+  r.decay_steps =
+      std::max(1, static_cast<int>(std::lround(o.decay_every_epochs * r.n_train / o.batch)));
+
+  r.norm = ComputeNormalisation(set, r.split.train);
+  r.baseline = FitLogisticBaseline(set, r.split.train);
+  r.fingerprint = RunFingerprint(r.opt, r.norm, r.split.train.size());
+  for (const std::size_t i : r.split.train) {
+    (set.labels[i] ? r.positives : r.negatives).push_back(i);
   }
+  r.train_rate = PositiveRate(set.labels, r.split.train);
+  r.class_weights = BalancedClassWeights(r.train_rate);
+  if (o.network.factored) {
+    r.collision_weights = BalancedClassWeights(PositiveRate(set.collision_free, r.split.train));
+    r.quality_weights = BalancedClassWeights(PositiveRate(set.quality_labels, r.split.train));
+  }
+  return r;
+}
+
+/// The model card written beside the best model: architecture, normalisation, data, split,
+/// training settings and progress (`seconds` of training so far), validation, baseline.
+json MakeCard(const GqcnnTrainOptions& o, const GqcnnSet& set, const RunSetup& r, GqcnnNet& net,
+              const GqcnnValidation& best, int steps_done, double seconds) {
+  std::size_t validation_positives = 0;
+  for (const std::size_t i : r.split.validation) validation_positives += set.labels[i];
+  json validation_objects = json::array();
+  for (const auto k : r.split.validation_objects) validation_objects.push_back(set.object_names[k]);
+  json card = {
+      {"model", "gqcnn"},
+      {"format_version", kGqcnnFormatVersion},
+      {"architecture", GqcnnConfigJson(r.opt.network)},
+      {"parameters", CountParameters(*net)},
+      {"normalisation",
+       {{"im_mean_m", r.norm.im_mean_m},
+        {"im_std_m", r.norm.im_std_m},
+        {"pose_mean_m", r.norm.pose_mean_m},
+        {"pose_std_m", r.norm.pose_std_m},
+        {"missing_pixels", "0 after normalisation (the training mean)"}}},
+      {"data",
+       {{"dirs", set.sources},
+        {"records", set.size()},
+        {"positives", set.positives},
+        {"positive_rate", static_cast<double>(set.positives) / static_cast<double>(set.size())},
+        {"objects", set.object_names.size()},
+        {"images", set.images()}}},
+      {"split",
+       {{"by", "object"},
+        {"seed", o.seed},
+        {"validation_fraction", o.validation_fraction},
+        {"admitted_only", o.admitted_only},
+        {"train_records", r.split.train.size()},
+        {"validation_records", r.split.validation.size()},
+        {"train_positive_rate", r.train_rate},
+        {"validation_positive_rate", static_cast<double>(validation_positives) /
+                                         static_cast<double>(r.split.validation.size())},
+        {"validation_objects", validation_objects}}},
+      {"training",
+       {{"optimizer", OptimizerName(o.optimizer)},
+        {"learning_rate", BaseLearningRate(o)},
+        {"momentum", o.optimizer == GqcnnOptimizer::kSgd ? o.momentum : 0.0},
+        {"weight_decay", o.weight_decay},
+        {"lr_decay", o.lr_decay},
+        {"decay_every_steps", r.decay_steps},
+        {"batch", o.batch},
+        {"balance", BalanceName(o.balance)},
+        {"augmentation", AugmentationJson(o.augmentation)},
+        {"total_steps", r.total_steps},
+        {"epochs", r.total_steps * static_cast<double>(o.batch) / r.n_train},
+        {"steps_done", steps_done},
+        {"best_step", best.step},
+        {"seconds", seconds},
+        {"threads", torch::get_num_threads()}}},
+      {"validation", ValidationJson(best)},
+      {"baseline", r.baseline.ToJson()}};
+  return card;
+}
+
+/// One step's training batch: crops, grasp depths, clearances and labels (the factored network's
+/// two labels too).
+struct Batch {
+  std::vector<float> crops, depths, clearances;
+  std::vector<std::int64_t> labels;
+  std::vector<float> collision_free, quality;
+  explicit Batch(int size)
+      : crops(static_cast<std::size_t>(size) * kPixels),
+        depths(static_cast<std::size_t>(size)),
+        clearances(static_cast<std::size_t>(size) * 3),
+        labels(static_cast<std::size_t>(size)),
+        collision_free(static_cast<std::size_t>(size)),
+        quality(static_cast<std::size_t>(size)) {}
+};
+
+/// Draws step `step`'s records from the stream seeded with (seed, step), balanced by class when
+/// the options say so, and augments their crops from the same stream.
+void DrawBatch(const GqcnnTrainOptions& o, const GqcnnSet& set, const RunSetup& r, int step,
+               Batch* b) {
+  std::mt19937_64 rng(MixSeed(o.seed, static_cast<std::uint64_t>(step)));
+  std::uniform_int_distribution<std::size_t> pick_train(0, r.split.train.size() - 1);
+  std::uniform_int_distribution<std::size_t> pick_pos(0, r.positives.size() - 1);
+  std::uniform_int_distribution<std::size_t> pick_neg(0, r.negatives.size() - 1);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int k = 0; k < o.batch; ++k) {
+    std::size_t i;
+    if (o.balance == GqcnnBalance::kBalancedSampling) {
+      i = unit(rng) < 0.5 ? r.positives[pick_pos(rng)] : r.negatives[pick_neg(rng)];
+    } else {
+      i = r.split.train[pick_train(rng)];
+    }
+    float* crop = b->crops.data() + static_cast<std::size_t>(k) * kPixels;
+    std::copy_n(set.crop(i), kPixels, crop);
+    AugmentCrop(crop, o.augmentation, rng);
+    b->depths[static_cast<std::size_t>(k)] = set.grasp_depths_m[i];
+    // The clearances are the least over both fingers, so the crop's symmetries keep them.
+    if (o.network.clearance_inputs) {
+      std::copy_n(set.clearance(i), 3, b->clearances.data() + static_cast<std::size_t>(k) * 3);
+    }
+    b->labels[static_cast<std::size_t>(k)] = set.labels[i];
+    if (o.network.factored) {
+      b->collision_free[static_cast<std::size_t>(k)] = set.collision_free[i];
+      b->quality[static_cast<std::size_t>(k)] = set.quality_labels[i];
+    }
+  }
+}
+
+/// One optimiser step on `b` at step `step`'s learning rate; its loss and batch accuracy.
+/// kInternal when the loss is not finite.
+core::Result<GqcnnStepRecord> OptimiseStep(const GqcnnTrainOptions& o, const RunSetup& r, State& s,
+                                           const Batch& b, int step) {
+  torch::Tensor images, poses;
+  NormaliseGqcnnInputs(b.crops.data(), b.depths.data(), b.clearances.data(), o.batch, o.network,
+                       r.norm, &images, &poses);
+  const torch::Tensor target = torch::tensor(b.labels, torch::kInt64);
+  const double lr =
+      BaseLearningRate(o) * std::pow(o.lr_decay, static_cast<double>((step - 1) / r.decay_steps));
+  for (auto& group : s.opt->param_groups()) group.options().set_lr(lr);
+  s.opt->zero_grad();
+  const torch::Tensor logits = s.net->forward(images, poses);
+  const bool weighted = o.balance == GqcnnBalance::kWeightedLoss;
+  torch::Tensor loss =
+      GqcnnSuccessLoss(logits, target, o.network, weighted ? r.class_weights : torch::Tensor());
+  if (o.network.factored) {
+    // Each factor learns from its own label too: a failure says which part failed.
+    auto factor_loss = [&](int column, const std::vector<float>& y, const torch::Tensor& w) {
+      const torch::Tensor t = torch::tensor(y, torch::kFloat32);
+      const torch::Tensor x = logits.select(1, column);
+      if (!weighted) return torch::binary_cross_entropy_with_logits(x, t);
+      const torch::Tensor per = w[0] * (1.0 - t) + w[1] * t;
+      return (per * torch::binary_cross_entropy_with_logits(x, t, {}, {}, at::Reduction::None))
+                 .sum() /
+             per.sum();
+    };
+    loss = loss + factor_loss(0, b.collision_free, r.collision_weights) +
+           factor_loss(1, b.quality, r.quality_weights);
+  }
+  loss.backward();
+  s.opt->step();
+  const torch::Tensor predicted = GqcnnSuccessProbability(logits, o.network).ge(0.5);
+  GqcnnStepRecord record{
+      step, loss.item<double>(),
+      predicted.eq(target.to(torch::kBool)).to(torch::kFloat64).mean().item<double>(), lr};
+  if (!std::isfinite(record.loss)) {
+    return MakeError(ErrorCode::kInternal,
+                     "training diverged at step " + std::to_string(step) +
+                         " (non-finite loss); try a lower --lr",
+                     "steps");
+  }
+  return record;
+}
+
+}  // namespace
+
+core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const GqcnnSet& set,
+                                          const GqcnnProgress& progress) {
+  auto split = CheckedSplit(o, set);
+  if (!split.ok()) return split.error();
+  const RunSetup r = SetUpRun(o, set, std::move(split).value());
 
   torch::manual_seed(MixSeed(o.seed, 0));
-  State s(opt);
+  State s(r.opt);
   Progress p;
   const std::filesystem::path ckpt = CheckpointPath(o.out);
   if (o.resume && std::filesystem::exists(ckpt)) {
-    auto loaded = LoadCheckpoint(ckpt, s, fingerprint);
+    auto loaded = LoadCheckpoint(ckpt, s, r.fingerprint);
     if (!loaded.ok()) return loaded.error();
     p = std::move(loaded.value());
   }
@@ -774,69 +957,14 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
 
   GqcnnTrainReport report;
   report.start_step = p.step;
-  report.total_steps = total_steps;
+  report.total_steps = r.total_steps;
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
-
-  std::size_t validation_positives = 0;
-  for (const std::size_t i : split.validation) validation_positives += set.labels[i];
-  auto make_card = [&](const GqcnnValidation& best, int steps_done) {
-    json validation_objects = json::array();
-    for (const auto k : split.validation_objects) validation_objects.push_back(set.object_names[k]);
-    json card = {
-        {"model", "gqcnn"},
-        {"format_version", kGqcnnFormatVersion},
-        {"architecture", GqcnnConfigJson(opt.network)},
-        {"parameters", CountParameters(*s.net)},
-        {"normalisation",
-         {{"im_mean_m", norm.im_mean_m},
-          {"im_std_m", norm.im_std_m},
-          {"pose_mean_m", norm.pose_mean_m},
-          {"pose_std_m", norm.pose_std_m},
-          {"missing_pixels", "0 after normalisation (the training mean)"}}},
-        {"data",
-         {{"dirs", set.sources},
-          {"records", set.size()},
-          {"positives", set.positives},
-          {"positive_rate", static_cast<double>(set.positives) / static_cast<double>(set.size())},
-          {"objects", set.object_names.size()},
-          {"images", set.images()}}},
-        {"split",
-         {{"by", "object"},
-          {"seed", o.seed},
-          {"validation_fraction", o.validation_fraction},
-          {"admitted_only", o.admitted_only},
-          {"train_records", split.train.size()},
-          {"validation_records", split.validation.size()},
-          {"train_positive_rate", train_rate},
-          {"validation_positive_rate", static_cast<double>(validation_positives) /
-                                           static_cast<double>(split.validation.size())},
-          {"validation_objects", validation_objects}}},
-        {"training",
-         {{"optimizer", OptimizerName(o.optimizer)},
-          {"learning_rate", BaseLearningRate(o)},
-          {"momentum", o.optimizer == GqcnnOptimizer::kSgd ? o.momentum : 0.0},
-          {"weight_decay", o.weight_decay},
-          {"lr_decay", o.lr_decay},
-          {"decay_every_steps", decay_steps},
-          {"batch", o.batch},
-          {"balance", BalanceName(o.balance)},
-          {"augmentation", AugmentationJson(o.augmentation)},
-          {"total_steps", total_steps},
-          {"epochs", total_steps * static_cast<double>(o.batch) / n_train},
-          {"steps_done", steps_done},
-          {"best_step", best.step},
-          {"seconds", p.seconds + elapsed()},
-          {"threads", torch::get_num_threads()}}},
-        {"validation", ValidationJson(best)},
-        {"baseline", baseline.ToJson()}};
-    return card;
-  };
   auto save_best = [&](const GqcnnValidation& v) {
-    json card = make_card(v, v.step);
-    SaveGqcnnNet(o.out, s.net, opt.network, norm, card);
+    json card = MakeCard(o, set, r, s.net, v, v.step, p.seconds + elapsed());
+    SaveGqcnnNet(o.out, s.net, r.opt.network, r.norm, card);
     card["model_file_bytes"] = std::filesystem::file_size(o.out);
     std::ofstream(GqcnnCardPath(o.out)) << card.dump(2) << "\n";
     report.card = card;
@@ -844,84 +972,18 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
 
   s.net->train();
   const int last_step =
-      o.stop_after_step > 0 ? std::min(o.stop_after_step, total_steps) : total_steps;
+      o.stop_after_step > 0 ? std::min(o.stop_after_step, r.total_steps) : r.total_steps;
   const int run_start = p.step;
-  std::vector<float> crops(static_cast<std::size_t>(o.batch) * kPixels);
-  std::vector<float> depths(static_cast<std::size_t>(o.batch));
-  std::vector<float> clearances(static_cast<std::size_t>(o.batch) * 3);
-  std::vector<std::int64_t> labels(static_cast<std::size_t>(o.batch));
-  std::vector<float> collision_free(static_cast<std::size_t>(o.batch));
-  std::vector<float> quality(static_cast<std::size_t>(o.batch));
+  Batch batch(o.batch);
   while (p.step < last_step) {
     const int step = ++p.step;
-    std::mt19937_64 rng(MixSeed(o.seed, static_cast<std::uint64_t>(step)));
-    std::uniform_int_distribution<std::size_t> pick_train(0, split.train.size() - 1);
-    std::uniform_int_distribution<std::size_t> pick_pos(0, positives.size() - 1);
-    std::uniform_int_distribution<std::size_t> pick_neg(0, negatives.size() - 1);
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    for (int k = 0; k < o.batch; ++k) {
-      std::size_t i;
-      if (o.balance == GqcnnBalance::kBalancedSampling) {
-        i = unit(rng) < 0.5 ? positives[pick_pos(rng)] : negatives[pick_neg(rng)];
-      } else {
-        i = split.train[pick_train(rng)];
-      }
-      float* crop = crops.data() + static_cast<std::size_t>(k) * kPixels;
-      std::copy_n(set.crop(i), kPixels, crop);
-      AugmentCrop(crop, o.augmentation, rng);
-      depths[static_cast<std::size_t>(k)] = set.grasp_depths_m[i];
-      // The clearances are the least over both fingers, so the crop's symmetries keep them.
-      if (o.network.clearance_inputs) {
-        std::copy_n(set.clearance(i), 3, clearances.data() + static_cast<std::size_t>(k) * 3);
-      }
-      labels[static_cast<std::size_t>(k)] = set.labels[i];
-      if (o.network.factored) {
-        collision_free[static_cast<std::size_t>(k)] = set.collision_free[i];
-        quality[static_cast<std::size_t>(k)] = set.quality_labels[i];
-      }
-    }
-    torch::Tensor images, poses;
-    NormaliseGqcnnInputs(crops.data(), depths.data(), clearances.data(), o.batch, o.network, norm,
-                         &images, &poses);
-    const torch::Tensor target = torch::tensor(labels, torch::kInt64);
-    const double lr =
-        BaseLearningRate(o) * std::pow(o.lr_decay, static_cast<double>((step - 1) / decay_steps));
-    for (auto& group : s.opt->param_groups()) group.options().set_lr(lr);
-    s.opt->zero_grad();
-    const torch::Tensor logits = s.net->forward(images, poses);
-    const bool weighted = o.balance == GqcnnBalance::kWeightedLoss;
-    torch::Tensor loss =
-        GqcnnSuccessLoss(logits, target, o.network, weighted ? class_weights : torch::Tensor());
-    if (o.network.factored) {
-      // Each factor learns from its own label too: a failure says which part failed.
-      auto factor_loss = [&](int column, const std::vector<float>& y, const torch::Tensor& w) {
-        const torch::Tensor t = torch::tensor(y, torch::kFloat32);
-        const torch::Tensor x = logits.select(1, column);
-        if (!weighted) return torch::binary_cross_entropy_with_logits(x, t);
-        const torch::Tensor per = w[0] * (1.0 - t) + w[1] * t;
-        return (per * torch::binary_cross_entropy_with_logits(x, t, {}, {}, at::Reduction::None))
-                   .sum() /
-               per.sum();
-      };
-      loss = loss + factor_loss(0, collision_free, collision_weights) +
-             factor_loss(1, quality, quality_weights);
-    }
-    loss.backward();
-    s.opt->step();
-    const torch::Tensor predicted = GqcnnSuccessProbability(logits, o.network).ge(0.5);
-    GqcnnStepRecord record{
-        step, loss.item<double>(),
-        predicted.eq(target.to(torch::kBool)).to(torch::kFloat64).mean().item<double>(), lr};
-    if (!std::isfinite(record.loss)) {
-      return MakeError(ErrorCode::kInternal,
-                       "training diverged at step " + std::to_string(step) +
-                           " (non-finite loss); try a lower --lr",
-                       "steps");
-    }
-    p.history.push_back(record);
+    DrawBatch(o, set, r, step, &batch);
+    auto record = OptimiseStep(o, r, s, batch, step);
+    if (!record.ok()) return record.error();
+    p.history.push_back(record.value());
     const GqcnnValidation* validated = nullptr;
-    if (step % opt.eval_every == 0 || step == total_steps) {
-      p.validations.push_back(Validate(s.net, o.network, set, split.validation, norm, step));
+    if (step % r.opt.eval_every == 0 || step == r.total_steps) {
+      p.validations.push_back(Validate(s.net, o.network, set, r.split.validation, r.norm, step));
       validated = &p.validations.back();
       if (!p.has_best || validated->balanced_accuracy > p.best.balanced_accuracy) {
         p.best = *validated;
@@ -929,11 +991,11 @@ core::Result<GqcnnTrainReport> TrainGqcnn(const GqcnnTrainOptions& o, const Gqcn
         save_best(p.best);
       }
     }
-    if (progress) progress(record, validated, total_steps);
-    if (step % opt.checkpoint_every == 0 || step == last_step) {
+    if (progress) progress(record.value(), validated, r.total_steps);
+    if (step % r.opt.checkpoint_every == 0 || step == last_step) {
       const double seconds_before = p.seconds;
       p.seconds += elapsed();
-      SaveCheckpoint(ckpt, s, p, fingerprint);
+      SaveCheckpoint(ckpt, s, p, r.fingerprint);
       p.seconds = seconds_before;
       WriteCurves(o.out, p.history, p.validations);
     }

@@ -301,184 +301,263 @@ void Execute(const sim::SimScene& scene, const sim::SceneRaycaster& raycaster,
   }
 }
 
-}  // namespace
-
-int RunEvaluate(std::vector<std::string> argv) {
-  cli::Args args(std::move(argv));
+/// evaluate's command line.
+struct EvaluateOptions {
   std::string model_path, compare_path, data, train_data;
   int max_scenes = 0;
   int grasp_scenes = 50;
   int threads = 2;
-  double constant = std::nan("");
+  double constant = std::nan("");  ///< the constant baseline's value; NaN: --train-data's mean
   core::StiffnessFgeParams stiffness_params;
-  args.Required("--model", "MODEL", &model_path);
-  args.Required("--data", "VALDIR", &data);
-  args.Text("--train-data", &train_data);
-  args.Text("--compare", &compare_path);
-  args.Number("--constant", cli::Bounds::Closed(0, 1), &constant);
-  args.Count("--scenes", &max_scenes);
-  args.Count("--grasp-scenes", &grasp_scenes);
-  const bool per_grasp = args.Flag("--per-grasp");
-  args.Number("--centre-weight", cli::Bounds::AtLeast(0), &stiffness_params.centre_weight);
-  args.Int("--threads", 1, 256, &threads);
-  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
-  if (train_data.empty() && !std::isfinite(constant)) {
-    return Fail(kCommand,
-                "the constant baseline needs --train-data DIR (its mean) or --constant C");
-  }
-  models::SetTorchThreads(threads);
-  cv::setNumThreads(threads);
+  bool per_grasp = false;
+};
 
-  auto model = models::StiffnessModel::Load(model_path);
-  if (!model.ok()) return Fail(kCommand, model.error().message);
-  // --compare: a second model whose planner runs on the same scenes (paired with the first's).
+core::Result<EvaluateOptions> ParseEvaluateOptions(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
+  EvaluateOptions o;
+  args.Required("--model", "MODEL", &o.model_path);
+  args.Required("--data", "VALDIR", &o.data);
+  args.Text("--train-data", &o.train_data);
+  args.Text("--compare", &o.compare_path);
+  args.Number("--constant", cli::Bounds::Closed(0, 1), &o.constant);
+  args.Count("--scenes", &o.max_scenes);
+  args.Count("--grasp-scenes", &o.grasp_scenes);
+  o.per_grasp = args.Flag("--per-grasp");
+  args.Number("--centre-weight", cli::Bounds::AtLeast(0), &o.stiffness_params.centre_weight);
+  args.Int("--threads", 1, 256, &o.threads);
+  if (const auto error = args.Finish()) return *error;
+  if (o.train_data.empty() && !std::isfinite(o.constant)) {
+    return core::MakeError(
+        core::ErrorCode::kInvalidArgument,
+        "the constant baseline needs --train-data DIR (its mean) or --constant C", "train-data");
+  }
+  return o;
+}
+
+/// What evaluate reads before the first scene.
+struct EvaluateInputs {
+  models::StiffnessModel model;
+  /// --compare: a second model whose planner runs on the same scenes (paired with the first's).
   std::optional<models::StiffnessModel> compared;
-  if (!compare_path.empty()) {
-    auto loaded = models::StiffnessModel::Load(compare_path);
-    if (!loaded.ok()) return Fail(kCommand, loaded.error().message);
+  models::SceneDataset val;
+  double constant = 0;  ///< the constant baseline's value
+  sim::SceneSpec spec;  ///< the one the validation set was generated with
+};
+
+core::Result<EvaluateInputs> LoadEvaluateInputs(const EvaluateOptions& o) {
+  auto model = models::StiffnessModel::Load(o.model_path);
+  if (!model.ok()) return model.error();
+  std::optional<models::StiffnessModel> compared;
+  if (!o.compare_path.empty()) {
+    auto loaded = models::StiffnessModel::Load(o.compare_path);
+    if (!loaded.ok()) return loaded.error();
     compared.emplace(std::move(loaded).value());
   }
-  auto val = models::SceneDataset::Open(data);
-  if (!val.ok()) return Fail(kCommand, val.error().message);
+  auto val = models::SceneDataset::Open(o.data);
+  if (!val.ok()) return val.error();
+  double constant = o.constant;
   if (!std::isfinite(constant)) {
-    auto mean = TrainingMean(train_data);
-    if (!mean.ok()) return Fail(kCommand, mean.error().message);
+    auto mean = TrainingMean(o.train_data);
+    if (!mean.ok()) return mean.error();
     constant = mean.value();
   }
   auto spec = SpecFromIndex(val.value().index());
-  if (!spec.ok()) return Fail(kCommand, spec.error().message);
+  if (!spec.ok()) return spec.error();
+  return EvaluateInputs{std::move(model).value(), std::move(compared), std::move(val).value(),
+                        constant, std::move(spec).value()};
+}
 
-  const int n = max_scenes > 0 ? std::min(max_scenes, val.value().size()) : val.value().size();
-  const int n_grasp = std::min(grasp_scenes, n);
+/// What evaluate gathers over the scenes: the maps' image metrics, prediction times, the map's
+/// errors per category and each planner's executed grasps.
+struct EvaluateTotals {
   Mean rmse_model, rmse_const, rmse_heur, mssim_model, mssim_const, mssim_heur;
   Mean rmse_compared, mssim_compared;
   std::vector<double> predict_ms;
   StrategyStats fge, stiff, oracle, stiff_compared;
   std::map<std::string, CategoryError> by_category;
   int skipped = 0, mismatched = 0;
-  cli::ProgressBar bar("evaluating", n);
-  for (int i = 0; i < n; ++i) {
-    bar.Update(i);
-    auto sample = val.value().Load(i);
-    if (!sample.ok()) return Fail(kCommand, sample.error().message);
-    const models::SceneSample& s = sample.value();
-    const auto t0 = std::chrono::steady_clock::now();
-    auto scene = core::Preprocess(s.depth, s.camera);
-    if (!scene.ok()) {
-      ++skipped;
-      continue;
-    }
-    const cv::Mat1f predicted = model.value().PredictScene(scene.value());
-    predict_ms.push_back(MillisecondsSince(t0));
-    const cv::Mat1f predicted_compared =
-        compared ? compared->PredictScene(scene.value()) : cv::Mat1f();
-    const cv::Mat1f constant_map(s.stiffness.size(), static_cast<float>(constant));
-    // The heuristic works inside the bin (a workspace ROI); the model sees it all.
-    const bool bin = spec.value().support.kind == sim::Support::Kind::kBin;
-    const cv::Mat1b roi = bin ? sim::BinWorkspaceRoi(spec.value(), s.camera, 3) : cv::Mat1b();
-    core::Scene in_bin = scene.value();
-    in_bin.height_m = in_bin.height_m.clone();  // masked below; the models saw the whole view
-    if (bin) in_bin.height_m.setTo(0.0f, roi == 0);
-    const cv::Mat1f heuristic = HeuristicStiffness(in_bin, s.camera);
-    if (compared) {
-      rmse_compared.Add(core::StiffnessRmse255(s.stiffness, predicted_compared).value());
-      mssim_compared.Add(core::StiffnessMssim(s.stiffness, predicted_compared).value());
-    }
-    rmse_model.Add(core::StiffnessRmse255(s.stiffness, predicted).value());
-    rmse_const.Add(core::StiffnessRmse255(s.stiffness, constant_map).value());
-    rmse_heur.Add(core::StiffnessRmse255(s.stiffness, heuristic).value());
-    mssim_model.Add(core::StiffnessMssim(s.stiffness, predicted).value());
-    mssim_const.Add(core::StiffnessMssim(s.stiffness, constant_map).value());
-    mssim_heur.Add(core::StiffnessMssim(s.stiffness, heuristic).value());
-    if (i >= n_grasp) continue;
+};
 
-    // Grasps: the same scene rebuilt exactly (GenerateScene is deterministic in its seed).
-    auto generated = sim::GenerateScene(spec.value(), val.value().entry(i).scene_seed);
-    if (!generated.ok()) return Fail(kCommand, generated.error().message);
-    const sim::GeneratedScene& g = generated.value();
-    if (cv::norm(g.views.labels, s.labels, cv::NORM_INF) != 0) {
-      ++mismatched;  // the dataset was not made with these parameters: skip its grasps
-      continue;
-    }
-    AddCategoryErrors(g.scene, s.labels, s.stiffness, predicted, &by_category);
-    auto raycaster = sim::SceneRaycaster::Build(g.scene);
-    if (!raycaster.ok()) return Fail(kCommand, raycaster.error().message);
-    const Eigen::Isometry3d& world_from_camera = spec.value().render.world_from_camera;
-    // The service's engine plans, with contacts inside the bin (the walls stay obstacles) and
-    // the maps already computed above; planning and execution share one gripper.
-    const engine::Models engine_models;  // none loaded: every map is given
-    engine::PlanOptions options;
-    options.region_of_interest = roi;
-    auto stiffness_options = std::make_shared<engine::StiffnessOptions>();
-    stiffness_options->params = stiffness_params;
-    const auto plan = [&](const std::string& strategy, const cv::Mat1f& map) {
-      options.strategy = strategy;
-      options.strategy_options = strategy == "stiffness" ? stiffness_options : nullptr;
-      options.stiffness_map = map;
-      std::vector<core::Grasp> grasps;
-      auto planned = engine::PlanGrasps(s.depth, s.camera, options, engine_models);
-      if (planned.ok()) {
-        for (const engine::PlannedGrasp& p : planned.value().grasps) grasps.push_back(p.grasp);
-      }
-      return grasps;
-    };
-    const auto execute = [&](const std::vector<core::Grasp>& grasps, StrategyStats* stats) {
-      Execute(g.scene, raycaster.value(), world_from_camera, grasps, options.gripper, s.stiffness,
-              s.labels, i, per_grasp, stats);
-    };
-    execute(plan("fge", cv::Mat1f()), &fge);
-    execute(plan("stiffness", predicted), &stiff);
-    execute(plan("stiffness", s.stiffness), &oracle);
-    if (compared) execute(plan("stiffness", predicted_compared), &stiff_compared);
+/// One scene's maps, predicted on its preprocessed depth: the models', and the workspace ROI the
+/// heuristic and the planners keep to (a bin's; empty on a table).
+struct SceneMaps {
+  cv::Mat1f predicted, predicted_compared;
+  cv::Mat1b roi;
+};
+
+/// Predicts the scene's maps and adds their image metrics (and the heuristic's and the constant
+/// baseline's) to `totals`; nothing when the depth cannot be preprocessed (counted as skipped).
+std::optional<SceneMaps> ScoreMaps(const EvaluateInputs& in, const models::SceneSample& s,
+                                   EvaluateTotals* totals) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto scene = core::Preprocess(s.depth, s.camera);
+  if (!scene.ok()) {
+    ++totals->skipped;
+    return std::nullopt;
   }
-  bar.Update(n);
+  SceneMaps maps;
+  maps.predicted = in.model.PredictScene(scene.value());
+  totals->predict_ms.push_back(MillisecondsSince(t0));
+  if (in.compared) maps.predicted_compared = in.compared->PredictScene(scene.value());
+  const cv::Mat1f constant_map(s.stiffness.size(), static_cast<float>(in.constant));
+  // The heuristic works inside the bin (a workspace ROI); the model sees it all.
+  const bool bin = in.spec.support.kind == sim::Support::Kind::kBin;
+  if (bin) maps.roi = sim::BinWorkspaceRoi(in.spec, s.camera, 3);
+  core::Scene in_bin = scene.value();
+  in_bin.height_m = in_bin.height_m.clone();  // masked below; the models saw the whole view
+  if (bin) in_bin.height_m.setTo(0.0f, maps.roi == 0);
+  const cv::Mat1f heuristic = HeuristicStiffness(in_bin, s.camera);
+  if (in.compared) {
+    totals->rmse_compared.Add(core::StiffnessRmse255(s.stiffness, maps.predicted_compared).value());
+    totals->mssim_compared.Add(core::StiffnessMssim(s.stiffness, maps.predicted_compared).value());
+  }
+  totals->rmse_model.Add(core::StiffnessRmse255(s.stiffness, maps.predicted).value());
+  totals->rmse_const.Add(core::StiffnessRmse255(s.stiffness, constant_map).value());
+  totals->rmse_heur.Add(core::StiffnessRmse255(s.stiffness, heuristic).value());
+  totals->mssim_model.Add(core::StiffnessMssim(s.stiffness, maps.predicted).value());
+  totals->mssim_const.Add(core::StiffnessMssim(s.stiffness, constant_map).value());
+  totals->mssim_heur.Add(core::StiffnessMssim(s.stiffness, heuristic).value());
+  return maps;
+}
+
+/// Rebuilds scene `i` exactly (GenerateScene is deterministic in its seed) and executes each
+/// planner's best grasp in it: classic FGE, stiffness FGE on the model's map, on the true map and
+/// on the compared model's. A scene that does not rebuild to the stored labels (the set was made
+/// with other parameters) is counted as mismatched and its grasps are skipped.
+std::optional<core::Error> ExecuteGrasps(const EvaluateOptions& o, const EvaluateInputs& in,
+                                         const models::SceneSample& s, int i, const SceneMaps& maps,
+                                         EvaluateTotals* totals) {
+  auto generated = sim::GenerateScene(in.spec, in.val.entry(i).scene_seed);
+  if (!generated.ok()) return generated.error();
+  const sim::GeneratedScene& g = generated.value();
+  if (cv::norm(g.views.labels, s.labels, cv::NORM_INF) != 0) {
+    ++totals->mismatched;  // the dataset was not made with these parameters: skip its grasps
+    return std::nullopt;
+  }
+  AddCategoryErrors(g.scene, s.labels, s.stiffness, maps.predicted, &totals->by_category);
+  auto raycaster = sim::SceneRaycaster::Build(g.scene);
+  if (!raycaster.ok()) return raycaster.error();
+  const Eigen::Isometry3d& world_from_camera = in.spec.render.world_from_camera;
+  // The service's engine plans, with contacts inside the bin (the walls stay obstacles) and
+  // the maps already computed above; planning and execution share one gripper.
+  const engine::Models engine_models;  // none loaded: every map is given
+  engine::PlanOptions options;
+  options.region_of_interest = maps.roi;
+  auto stiffness_options = std::make_shared<engine::StiffnessOptions>();
+  stiffness_options->params = o.stiffness_params;
+  const auto plan = [&](const std::string& strategy, const cv::Mat1f& map) {
+    options.strategy = strategy;
+    options.strategy_options = strategy == "stiffness" ? stiffness_options : nullptr;
+    options.stiffness_map = map;
+    std::vector<core::Grasp> grasps;
+    auto planned = engine::PlanGrasps(s.depth, s.camera, options, engine_models);
+    if (planned.ok()) {
+      for (const engine::PlannedGrasp& p : planned.value().grasps) grasps.push_back(p.grasp);
+    }
+    return grasps;
+  };
+  const auto execute = [&](const std::vector<core::Grasp>& grasps, StrategyStats* stats) {
+    Execute(g.scene, raycaster.value(), world_from_camera, grasps, options.gripper, s.stiffness,
+            s.labels, i, o.per_grasp, stats);
+  };
+  execute(plan("fge", cv::Mat1f()), &totals->fge);
+  execute(plan("stiffness", maps.predicted), &totals->stiff);
+  execute(plan("stiffness", s.stiffness), &totals->oracle);
+  if (in.compared) {
+    execute(plan("stiffness", maps.predicted_compared), &totals->stiff_compared);
+  }
+  return std::nullopt;
+}
+
+/// evaluate's report: the image metrics of the model and the baselines, the prediction time, the
+/// map's errors per category and the grasp figures of every planner against classic FGE.
+json EvaluateJson(const EvaluateOptions& o, const EvaluateInputs& in, const EvaluateTotals& totals,
+                  int n, int n_grasp) {
+  std::vector<double> predict_ms = totals.predict_ms;
   std::sort(predict_ms.begin(), predict_ms.end());
   const double median_ms = predict_ms.empty() ? std::nan("") : predict_ms[predict_ms.size() / 2];
+  const StrategyStats& fge = totals.fge;
+  const StrategyStats& stiff = totals.stiff;
   const double fge_s = fge.gt_mean_stiffness.value();
   const double st_s = stiff.gt_mean_stiffness.value();
   json out = {
-      {"model", model_path},
-      {"model_description", model.value().description()},
-      {"data", data},
-      {"scenes", n - skipped},
-      {"skipped_scenes", skipped},
+      {"model", o.model_path},
+      {"model_description", in.model.description()},
+      {"data", o.data},
+      {"scenes", n - totals.skipped},
+      {"skipped_scenes", totals.skipped},
       {"image_metrics",
-       {{"model", {{"rmse_255", Num(rmse_model.value())}, {"mssim", Num(mssim_model.value())}}},
+       {{"model",
+         {{"rmse_255", Num(totals.rmse_model.value())},
+          {"mssim", Num(totals.mssim_model.value())}}},
         {"constant_baseline",
-         {{"value", constant},
-          {"rmse_255", Num(rmse_const.value())},
-          {"mssim", Num(mssim_const.value())}}},
+         {{"value", in.constant},
+          {"rmse_255", Num(totals.rmse_const.value())},
+          {"mssim", Num(totals.mssim_const.value())}}},
         {"heuristic_baseline",
-         {{"rmse_255", Num(rmse_heur.value())}, {"mssim", Num(mssim_heur.value())}}}}},
+         {{"rmse_255", Num(totals.rmse_heur.value())},
+          {"mssim", Num(totals.mssim_heur.value())}}}}},
       {"predict_ms_median_incl_preprocess", Num(median_ms)},
       // Object pixels of the grasp scenes, per catalogue category: where the map is wrong.
-      {"object_pixels_by_category", CategoryErrorsJson(by_category)},
+      {"object_pixels_by_category", CategoryErrorsJson(totals.by_category)},
       {"grasp_metrics",
        {{"scenes", n_grasp},
-        {"scenes_not_reproduced", mismatched},
+        {"scenes_not_reproduced", totals.mismatched},
         {"fge", fge.ToJson()},
         {"stiffness_model", stiff.ToJson()},
-        {"stiffness_ground_truth", oracle.ToJson()},
+        {"stiffness_ground_truth", totals.oracle.ToJson()},
         {"mean_stiffness_gain", Num(st_s / fge_s - 1.0)},
         // Paired percentile bootstrap over the grasp scenes (docs/stiffness.md, "Evaluation").
         {"versus_fge",
          {{"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}},
           {"stiffness_model", Versus(stiff, fge)},
-          {"stiffness_ground_truth", Versus(oracle, fge)}}}}},
+          {"stiffness_ground_truth", Versus(totals.oracle, fge)}}}}},
   };
-  if (compared) {
+  if (in.compared) {
     // The second model: its map's scores, its planner's figures, and the paired comparison
     // of its planner with the first model's (compared / first).
-    out["compared_model"] = {
-        {"model", compare_path},
-        {"model_description", compared->description()},
-        {"image_metrics",
-         {{"rmse_255", Num(rmse_compared.value())}, {"mssim", Num(mssim_compared.value())}}}};
-    out["grasp_metrics"]["stiffness_compared_model"] = stiff_compared.ToJson();
-    out["grasp_metrics"]["versus_fge"]["stiffness_compared_model"] = Versus(stiff_compared, fge);
-    out["grasp_metrics"]["compared_versus_model"] = Versus(stiff_compared, stiff);
+    out["compared_model"] = {{"model", o.compare_path},
+                             {"model_description", in.compared->description()},
+                             {"image_metrics",
+                              {{"rmse_255", Num(totals.rmse_compared.value())},
+                               {"mssim", Num(totals.mssim_compared.value())}}}};
+    out["grasp_metrics"]["stiffness_compared_model"] = totals.stiff_compared.ToJson();
+    out["grasp_metrics"]["versus_fge"]["stiffness_compared_model"] =
+        Versus(totals.stiff_compared, fge);
+    out["grasp_metrics"]["compared_versus_model"] = Versus(totals.stiff_compared, stiff);
   }
-  std::cout << out.dump(2) << std::endl;
+  return out;
+}
+
+}  // namespace
+
+int RunEvaluate(std::vector<std::string> argv) {
+  auto options = ParseEvaluateOptions(std::move(argv));
+  if (!options.ok()) return Fail(kCommand, options.error().message);
+  const EvaluateOptions& o = options.value();
+  models::SetTorchThreads(o.threads);
+  cv::setNumThreads(o.threads);
+  auto inputs = LoadEvaluateInputs(o);
+  if (!inputs.ok()) return Fail(kCommand, inputs.error().message);
+  const EvaluateInputs& in = inputs.value();
+
+  const int n = o.max_scenes > 0 ? std::min(o.max_scenes, in.val.size()) : in.val.size();
+  const int n_grasp = std::min(o.grasp_scenes, n);
+  EvaluateTotals totals;
+  cli::ProgressBar bar("evaluating", n);
+  for (int i = 0; i < n; ++i) {
+    bar.Update(i);
+    auto sample = in.val.Load(i);
+    if (!sample.ok()) return Fail(kCommand, sample.error().message);
+    const models::SceneSample& s = sample.value();
+    const std::optional<SceneMaps> maps = ScoreMaps(in, s, &totals);
+    if (!maps || i >= n_grasp) continue;
+    if (const auto error = ExecuteGrasps(o, in, s, i, *maps, &totals)) {
+      return Fail(kCommand, error->message);
+    }
+  }
+  bar.Update(n);
+  std::cout << EvaluateJson(o, in, totals, n, n_grasp).dump(2) << std::endl;
   return 0;
 }
 

@@ -558,36 +558,24 @@ void ClearBin(const sim::GeneratedScene& generated, const sim::SceneSpec& spec,
   stats->damage_rate.push_back(picked > 0 ? static_cast<double>(damaged) / picked : std::nan(""));
 }
 
-}  // namespace
-
-int RunEvaluateTasks(std::vector<std::string> argv) {
-  cli::Args args(std::move(argv));
-  std::string segmentation_path, stiffness_path, out_path, openings_text,
-      tasks_text = "clutter,brushes,obstacles";
-  int clutter_scenes = 600, brush_scenes = 100, obstacle_scenes = 100, bins = 100,
-      max_attempts = 30, threads = 2, stroke_mm = 85;
-  std::uint64_t seed = 7;
-  args.Required("--segmentation-model", "FILE", &segmentation_path);
-  args.Text("--stiffness-model", &stiffness_path);
-  args.Text("--out", &out_path);
-  args.Text("--tasks", &tasks_text);
-  args.Text("--openings", &openings_text);
-  args.Count("--clutter-scenes", &clutter_scenes);
-  args.Count("--brush-scenes", &brush_scenes);
-  args.Count("--obstacle-scenes", &obstacle_scenes);
-  args.Count("--bins", &bins);
-  args.Count("--max-attempts", &max_attempts);
-  args.Int("--seed", 0, cli::kNoLimit, &seed);
-  args.Int("--threads", 1, 256, &threads);
-  args.Int("--stroke-mm", 10, 300, &stroke_mm);
-  const bool per_grasp = args.Flag("--per-grasp");
-  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
-  core::Gripper gripper;  // planning and execution: the same one
-  gripper.opening_stroke_m = stroke_mm * 1e-3;
+/// evaluate-tasks' command line.
+struct TasksOptions {
+  std::string segmentation_path, stiffness_path, out_path;
   std::vector<Task> tasks;
-  for (std::size_t start = 0; start <= tasks_text.size();) {
-    const std::size_t comma = std::min(tasks_text.find(',', start), tasks_text.size());
-    const std::string name = tasks_text.substr(start, comma - start);
+  int clutter_scenes = 600, brush_scenes = 100, obstacle_scenes = 100, bins = 100,
+      max_attempts = 30, threads = 2;
+  std::uint64_t seed = 7;
+  bool per_grasp = false;
+  core::Gripper gripper;                    ///< planning and execution: the same one
+  core::DeformabilityParams deformability;  ///< --openings; the policy is set per planner
+};
+
+/// --tasks: task names, comma-separated.
+core::Result<std::vector<Task>> ParseTasks(const std::string& text) {
+  std::vector<Task> tasks;
+  for (std::size_t start = 0; start <= text.size();) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string name = text.substr(start, comma - start);
     if (name == "clutter") {
       tasks.push_back(Task::kClutter);
     } else if (name == "brushes") {
@@ -595,134 +583,205 @@ int RunEvaluateTasks(std::vector<std::string> argv) {
     } else if (name == "obstacles") {
       tasks.push_back(Task::kObstacles);
     } else {
-      return Fail(kCommand, "--tasks takes clutter, brushes and obstacles, comma-separated; got '" +
-                                name + "'");
+      return core::MakeError(
+          core::ErrorCode::kInvalidArgument,
+          "--tasks takes clutter, brushes and obstacles, comma-separated; got '" + name + "'",
+          "--tasks");
     }
     start = comma + 1;
   }
+  return tasks;
+}
 
-  core::DeformabilityParams deformability;
-  if (!openings_text.empty()) {
-    deformability.opening_fractions.clear();
-    for (std::size_t start = 0; start <= openings_text.size();) {
-      const std::size_t comma = std::min(openings_text.find(',', start), openings_text.size());
-      double f = 0;
-      if (!cli::ParseNumber(openings_text.substr(start, comma - start), &f) || !(f > 0 && f <= 1) ||
-          (!deformability.opening_fractions.empty() &&
-           !(f > deformability.opening_fractions.back()))) {
-        return Fail(kCommand,
-                    "--openings takes increasing fractions of the stroke in (0, 1], "
-                    "comma-separated");
-      }
-      deformability.opening_fractions.push_back(f);
-      start = comma + 1;
+/// --openings: increasing fractions of the stroke in (0, 1], comma-separated.
+core::Result<std::vector<double>> ParseOpenings(const std::string& text) {
+  std::vector<double> fractions;
+  for (std::size_t start = 0; start <= text.size();) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    double f = 0;
+    if (!cli::ParseNumber(text.substr(start, comma - start), &f) || !(f > 0 && f <= 1) ||
+        (!fractions.empty() && !(f > fractions.back()))) {
+      return core::MakeError(core::ErrorCode::kInvalidArgument,
+                             "--openings takes increasing fractions of the stroke in (0, 1], "
+                             "comma-separated",
+                             "--openings");
     }
+    fractions.push_back(f);
+    start = comma + 1;
   }
+  return fractions;
+}
 
-  models::SetTorchThreads(threads);
-  cv::setNumThreads(threads);
-  Models models{{}, deformability};
-  auto segmentation = models::SegmentationModel::Load(segmentation_path);
-  if (!segmentation.ok()) return Fail(kCommand, segmentation.error().message);
+core::Result<TasksOptions> ParseTasksOptions(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
+  TasksOptions o;
+  std::string openings_text, tasks_text = "clutter,brushes,obstacles";
+  int stroke_mm = 85;
+  args.Required("--segmentation-model", "FILE", &o.segmentation_path);
+  args.Text("--stiffness-model", &o.stiffness_path);
+  args.Text("--out", &o.out_path);
+  args.Text("--tasks", &tasks_text);
+  args.Text("--openings", &openings_text);
+  args.Count("--clutter-scenes", &o.clutter_scenes);
+  args.Count("--brush-scenes", &o.brush_scenes);
+  args.Count("--obstacle-scenes", &o.obstacle_scenes);
+  args.Count("--bins", &o.bins);
+  args.Count("--max-attempts", &o.max_attempts);
+  args.Int("--seed", 0, cli::kNoLimit, &o.seed);
+  args.Int("--threads", 1, 256, &o.threads);
+  args.Int("--stroke-mm", 10, 300, &stroke_mm);
+  o.per_grasp = args.Flag("--per-grasp");
+  if (const auto error = args.Finish()) return *error;
+  o.gripper.opening_stroke_m = stroke_mm * 1e-3;
+  auto tasks = ParseTasks(tasks_text);
+  if (!tasks.ok()) return tasks.error();
+  o.tasks = std::move(tasks).value();
+  if (!openings_text.empty()) {
+    auto openings = ParseOpenings(openings_text);
+    if (!openings.ok()) return openings.error();
+    o.deformability.opening_fractions = std::move(openings).value();
+  }
+  return o;
+}
+
+/// The segmentation model and, with --stiffness-model, the stiffness model.
+core::Result<Models> LoadTaskModels(const TasksOptions& o) {
+  Models models{{}, o.deformability};
+  auto segmentation = models::SegmentationModel::Load(o.segmentation_path);
+  if (!segmentation.ok()) return segmentation.error();
   models.loaded.segmentation =
       std::make_shared<const models::SegmentationModel>(std::move(segmentation).value());
-  if (!stiffness_path.empty()) {
-    auto loaded = models::StiffnessModel::Load(stiffness_path);
-    if (!loaded.ok()) return Fail(kCommand, loaded.error().message);
+  if (!o.stiffness_path.empty()) {
+    auto stiffness = models::StiffnessModel::Load(o.stiffness_path);
+    if (!stiffness.ok()) return stiffness.error();
     models.loaded.stiffness =
-        std::make_shared<const models::StiffnessModel>(std::move(loaded).value());
+        std::make_shared<const models::StiffnessModel>(std::move(stiffness).value());
   }
+  return models;
+}
+
+/// One task's one-grasp scenes: `wanted` scenes of validation shapes (obstacles: draws without a
+/// fair target among sponges are passed over), on each of which every planner plans once and
+/// its best grasp is executed. The task's report without bin clearing.
+core::Result<json> RunTaskScenes(Task task, const sim::SceneSpec& spec, int wanted,
+                                 const TasksOptions& o, const Models& models,
+                                 const std::vector<Planner>& planners, cli::ProgressBar* bar) {
+  const cv::Mat1b roi = sim::BinWorkspaceRoi(spec, spec.render.camera, kBinMarginPx);
+  std::vector<Stats> stats(planners.size());
+  int used = 0, skipped = 0;
+  TargetSkips target_skips;
+  for (int i = 0; used < wanted && i < 5 * wanted + 10; ++i) {
+    bar->Update(used);
+    const std::uint64_t scene_seed =
+        sim::SceneSeed(o.seed + static_cast<int>(task) * 1000003u, i, sim::ShapeSplit::kVal);
+    auto generated = sim::GenerateScene(spec, scene_seed);
+    if (!generated.ok()) return generated.error();
+    const sim::GeneratedScene& g = generated.value();
+    int target_id = 0;
+    cv::Mat1b target_mask;
+    if (task == Task::kObstacles) {
+      target_id = PickTarget(g.scene, g.views.labels, spec.render, o.gripper.opening_stroke_m,
+                             &target_skips);
+      if (target_id == 0) {
+        ++skipped;  // no object packed among sponges in this draw
+        continue;
+      }
+      target_mask = g.views.labels == target_id;
+    }
+    auto raycaster = sim::SceneRaycaster::Build(g.scene);
+    if (!raycaster.ok()) return raycaster.error();
+    for (std::size_t p = 0; p < planners.size(); ++p) {
+      const Plan plan = RunPlanner(planners[p], g.views.depth, spec.render.camera, roi, target_mask,
+                                   models, o.gripper);
+      Record(task, g.scene, raycaster.value(), spec.render.world_from_camera, plan, target_id,
+             o.per_grasp, o.gripper, &stats[p]);
+    }
+    ++used;
+  }
+  bar->Update(wanted);
+  json task_json = {{"scenes", used},
+                    {"draws_without_a_target_among_sponges", skipped},
+                    {"candidate_targets_passed_over",
+                     {{"wider_than_the_stroke", target_skips.wider_than_the_stroke},
+                      {"covered", target_skips.covered}}},
+                    {"spec", sim::SceneSpecToJson(spec)},
+                    {"planners", json::object()},
+                    {"versus_fge", json::object()}};
+  for (std::size_t p = 0; p < planners.size(); ++p) {
+    task_json["planners"][planners[p].name] = stats[p].ToJson();
+    if (p > 0) task_json["versus_fge"][planners[p].name] = Versus(stats[p], stats[0]);
+  }
+  return task_json;
+}
+
+/// Bin clearing in `o.bins` clutter bins, every planner on the same bins: the clutter task's
+/// "bin_clearing" and "bin_clearing_versus_fge".
+core::Result<json> RunBinClearing(const sim::SceneSpec& spec, const TasksOptions& o,
+                                  const Models& models, const std::vector<Planner>& planners,
+                                  cli::ProgressBar* bar) {
+  std::vector<ClearingStats> clearing(planners.size());
+  for (int b = 0; b < o.bins; ++b) {
+    bar->Update(b);
+    auto generated =
+        sim::GenerateScene(spec, sim::SceneSeed(o.seed + 77u, b, sim::ShapeSplit::kVal));
+    if (!generated.ok()) return generated.error();
+    for (std::size_t p = 0; p < planners.size(); ++p) {
+      ClearBin(generated.value(), spec, planners[p], models, o.gripper, o.max_attempts,
+               &clearing[p]);
+    }
+  }
+  bar->Update(o.bins);
+  json bin_json = json::object();
+  for (std::size_t p = 0; p < planners.size(); ++p) {
+    bin_json[planners[p].name] = clearing[p].ToJson();
+  }
+  json versus = json::object();
+  for (std::size_t p = 1; p < planners.size(); ++p) {
+    versus[planners[p].name] = VersusClearing(clearing[p], clearing[0]);
+  }
+  return json{{"bin_clearing", bin_json}, {"bin_clearing_versus_fge", versus}};
+}
+
+}  // namespace
+
+int RunEvaluateTasks(std::vector<std::string> argv) {
+  auto options = ParseTasksOptions(std::move(argv));
+  if (!options.ok()) return Fail(kCommand, options.error().message);
+  const TasksOptions& o = options.value();
+  models::SetTorchThreads(o.threads);
+  cv::setNumThreads(o.threads);
+  auto loaded = LoadTaskModels(o);
+  if (!loaded.ok()) return Fail(kCommand, loaded.error().message);
+  const Models& models = loaded.value();
   const std::vector<Planner> planners = Planners(models.loaded.stiffness != nullptr);
 
-  json out = {{"segmentation_model", segmentation_path},
-              {"stiffness_model", stiffness_path.empty() ? json() : json(stiffness_path)},
-              {"seed", seed},
+  json out = {{"segmentation_model", o.segmentation_path},
+              {"stiffness_model", o.stiffness_path.empty() ? json() : json(o.stiffness_path)},
+              {"seed", o.seed},
               {"opening_fractions", models.deformability.opening_fractions},
-              {"gripper", codec::ToJson(gripper)},
+              {"gripper", codec::ToJson(o.gripper)},
               {"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}},
               {"tasks", json::object()}};
-  for (const Task task : tasks) {
+  for (const Task task : o.tasks) {
     const sim::SceneSpec spec = TaskSpec(task);
-    const int wanted = task == Task::kClutter   ? clutter_scenes
-                       : task == Task::kBrushes ? brush_scenes
-                                                : obstacle_scenes;
-    const cv::Mat1b roi = sim::BinWorkspaceRoi(spec, spec.render.camera, kBinMarginPx);
-    std::vector<Stats> stats(planners.size());
-    int used = 0, skipped = 0;
-    TargetSkips target_skips;
+    const int wanted = task == Task::kClutter   ? o.clutter_scenes
+                       : task == Task::kBrushes ? o.brush_scenes
+                                                : o.obstacle_scenes;
     cli::ProgressBar bar(std::string(TaskName(task)) + " scenes", wanted);
-    for (int i = 0; used < wanted && i < 5 * wanted + 10; ++i) {
-      bar.Update(used);
-      const std::uint64_t scene_seed =
-          sim::SceneSeed(seed + static_cast<int>(task) * 1000003u, i, sim::ShapeSplit::kVal);
-      auto generated = sim::GenerateScene(spec, scene_seed);
-      if (!generated.ok()) return Fail(kCommand, generated.error().message);
-      const sim::GeneratedScene& g = generated.value();
-      int target_id = 0;
-      cv::Mat1b target_mask;
-      if (task == Task::kObstacles) {
-        target_id = PickTarget(g.scene, g.views.labels, spec.render, gripper.opening_stroke_m,
-                               &target_skips);
-        if (target_id == 0) {
-          ++skipped;  // no object packed among sponges in this draw
-          continue;
-        }
-        target_mask = g.views.labels == target_id;
-      }
-      auto raycaster = sim::SceneRaycaster::Build(g.scene);
-      if (!raycaster.ok()) return Fail(kCommand, raycaster.error().message);
-      for (std::size_t p = 0; p < planners.size(); ++p) {
-        const Plan plan = RunPlanner(planners[p], g.views.depth, spec.render.camera, roi,
-                                     target_mask, models, gripper);
-        Record(task, g.scene, raycaster.value(), spec.render.world_from_camera, plan, target_id,
-               per_grasp, gripper, &stats[p]);
-      }
-      ++used;
+    auto task_json = RunTaskScenes(task, spec, wanted, o, models, planners, &bar);
+    if (!task_json.ok()) return Fail(kCommand, task_json.error().message);
+    if (task == Task::kClutter && o.bins > 0) {
+      cli::ProgressBar bin_bar("bin clearing", o.bins);
+      auto clearing = RunBinClearing(spec, o, models, planners, &bin_bar);
+      if (!clearing.ok()) return Fail(kCommand, clearing.error().message);
+      task_json.value().update(clearing.value());
     }
-    bar.Update(wanted);
-    json task_json = {{"scenes", used},
-                      {"draws_without_a_target_among_sponges", skipped},
-                      {"candidate_targets_passed_over",
-                       {{"wider_than_the_stroke", target_skips.wider_than_the_stroke},
-                        {"covered", target_skips.covered}}},
-                      {"spec", sim::SceneSpecToJson(spec)},
-                      {"planners", json::object()},
-                      {"versus_fge", json::object()}};
-    for (std::size_t p = 0; p < planners.size(); ++p) {
-      task_json["planners"][planners[p].name] = stats[p].ToJson();
-      if (p > 0) task_json["versus_fge"][planners[p].name] = Versus(stats[p], stats[0]);
-    }
-    if (task == Task::kClutter && bins > 0) {
-      std::vector<ClearingStats> clearing(planners.size());
-      cli::ProgressBar bin_bar("bin clearing", bins);
-      for (int b = 0; b < bins; ++b) {
-        bin_bar.Update(b);
-        auto generated =
-            sim::GenerateScene(spec, sim::SceneSeed(seed + 77u, b, sim::ShapeSplit::kVal));
-        if (!generated.ok()) return Fail(kCommand, generated.error().message);
-        for (std::size_t p = 0; p < planners.size(); ++p) {
-          ClearBin(generated.value(), spec, planners[p], models, gripper, max_attempts,
-                   &clearing[p]);
-        }
-      }
-      bin_bar.Update(bins);
-      json bin_json = json::object();
-      for (std::size_t p = 0; p < planners.size(); ++p) {
-        bin_json[planners[p].name] = clearing[p].ToJson();
-      }
-      task_json["bin_clearing"] = bin_json;
-      json versus = json::object();
-      for (std::size_t p = 1; p < planners.size(); ++p) {
-        versus[planners[p].name] = VersusClearing(clearing[p], clearing[0]);
-      }
-      task_json["bin_clearing_versus_fge"] = versus;
-    }
-    out["tasks"][TaskName(task)] = task_json;
+    out["tasks"][TaskName(task)] = task_json.value();
   }
   const std::string text = out.dump(2);
   std::cout << text << std::endl;
-  if (!out_path.empty()) {
-    if (const auto error = cli::WriteFile(out_path, text + "\n")) {
+  if (!o.out_path.empty()) {
+    if (const auto error = cli::WriteFile(o.out_path, text + "\n")) {
       return Fail(kCommand, error->message);
     }
   }

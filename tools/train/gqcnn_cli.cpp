@@ -282,104 +282,132 @@ std::vector<double> Thresholds(const ThresholdPolicy& policy, const models::Gqcn
   return thresholds;
 }
 
-}  // namespace
-
-int RunGqcnnEvaluate(std::vector<std::string> argv) {
-  cli::Args args(std::move(argv));
+/// gqcnn-eval's command line.
+struct GqcnnEvalOptions {
   std::string model_path, json_out, predictions_out;
+  std::vector<std::string> data;
+  std::vector<std::string> calibration;  ///< --calibrate-on
+  double threshold = 0.5;                ///< --threshold
+  bool cross = false;                    ///< --cross-calibrate
   int threads = 2, resamples = 1000;
-  ThresholdPolicy policy;
   std::uint64_t seed = 1;
-  args.Required("--model", "MODEL", &model_path);
-  const std::vector<std::string> data = args.All("--data");
-  args.Text("--json", &json_out);
-  args.Text("--predictions", &predictions_out);
-  const bool has_threshold = args.Number("--threshold", cli::Bounds::Closed(0, 1), &policy.fixed);
-  const std::vector<std::string> calibration = args.All("--calibrate-on");
-  policy.cross = args.Flag("--cross-calibrate");
-  args.Int("--resamples", 10, 1000000, &resamples);
-  args.Int("--seed", 0, cli::kNoLimit, &seed);
-  args.Int("--threads", 1, 256, &threads);
-  if (data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
-  if (int{has_threshold} + int{!calibration.empty()} + int{policy.cross} > 1) {
+};
+
+core::Result<GqcnnEvalOptions> ParseGqcnnEvalOptions(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
+  GqcnnEvalOptions o;
+  args.Required("--model", "MODEL", &o.model_path);
+  o.data = args.All("--data");
+  args.Text("--json", &o.json_out);
+  args.Text("--predictions", &o.predictions_out);
+  const bool has_threshold = args.Number("--threshold", cli::Bounds::Closed(0, 1), &o.threshold);
+  o.calibration = args.All("--calibrate-on");
+  o.cross = args.Flag("--cross-calibrate");
+  args.Int("--resamples", 10, 1000000, &o.resamples);
+  args.Int("--seed", 0, cli::kNoLimit, &o.seed);
+  args.Int("--threads", 1, 256, &o.threads);
+  if (o.data.empty()) args.Fail("--data DIR is required (repeat it for more datasets)", "--data");
+  if (int{has_threshold} + int{!o.calibration.empty()} + int{o.cross} > 1) {
     args.Fail("give one of --threshold, --calibrate-on and --cross-calibrate, not two",
               "--calibrate-on");
   }
-  if (policy.cross && data.size() < 2) {
+  if (o.cross && o.data.size() < 2) {
     args.Fail("--cross-calibrate needs two or more --data sets (each is calibrated on the others)",
               "--cross-calibrate");
   }
-  for (const std::string& c : calibration) {
+  for (const std::string& c : o.calibration) {
     std::error_code ec;
-    for (const std::string& d : data) {
+    for (const std::string& d : o.data) {
       if (fs::equivalent(fs::path(c), fs::path(d), ec)) {
         args.Fail("--calibrate-on " + c + " is also --data: calibrate on other objects",
                   "--calibrate-on");
       }
     }
   }
-  if (const auto error = args.Finish()) return Fail(kCommand, error->message);
+  if (const auto error = args.Finish()) return *error;
+  return o;
+}
 
-  models::SetTorchThreads(threads);
-  auto model = models::GqcnnModel::Load(model_path);
-  if (!model.ok()) return FailError(kCommand, model.error());
+/// What gqcnn-eval reads before it scores: the model, the baseline in its card, the records it
+/// is evaluated on and those a threshold is chosen on (--calibrate-on) with their scores.
+struct GqcnnEvalInputs {
+  models::GqcnnModel model;
+  models::LogisticBaseline baseline;
+  models::GqcnnSet calibration;  ///< empty without --calibrate-on
+  SetScores calibration_scores;
+  models::GqcnnSet set;
+};
+
+/// An error that names no field: FailError prints its message alone.
+core::Error MessageOnly(const std::string& message) {
+  return core::MakeError(core::ErrorCode::kInvalidArgument, message);
+}
+
+core::Result<GqcnnEvalInputs> LoadGqcnnEvalInputs(const GqcnnEvalOptions& o) {
+  auto model = models::GqcnnModel::Load(o.model_path);
+  if (!model.ok()) return model.error();
   const json& card = model.value().Card();
   auto baseline = models::LogisticBaseline::FromJson(card.value("baseline", json::object()));
-  if (!baseline.ok()) return FailError(kCommand, baseline.error());
+  if (!baseline.ok()) return baseline.error();
   const bool takes_clearances = model.value().takes_clearances();
-  core::Result<models::GqcnnSet> cal_set = models::GqcnnSet{};
-  SetScores cal_scores;
-  if (!calibration.empty()) {
-    cal_set = Load(calibration);
-    if (!cal_set.ok()) return FailError(kCommand, cal_set.error());
-    if (takes_clearances && !cal_set.value().clearances_measured) {
-      return Fail(kCommand, kPredateClearances);
+  models::GqcnnSet calibration;
+  SetScores calibration_scores;
+  if (!o.calibration.empty()) {
+    auto loaded = Load(o.calibration);
+    if (!loaded.ok()) return loaded.error();
+    if (takes_clearances && !loaded.value().clearances_measured) {
+      return MessageOnly(kPredateClearances);
     }
-    cal_scores = ScoreSet(model.value(), baseline.value(), cal_set.value());
-    policy.calibration = &cal_set.value();
-    policy.calibration_scores = &cal_scores;
+    calibration = std::move(loaded).value();
+    calibration_scores = ScoreSet(model.value(), baseline.value(), calibration);
   }
-  auto set = Load(data);
-  if (!set.ok()) return FailError(kCommand, set.error());
-  const models::GqcnnSet& s = set.value();
-  if (takes_clearances && !s.clearances_measured) return Fail(kCommand, kPredateClearances);
-  if (policy.calibration && s.clearances_measured != policy.calibration->clearances_measured) {
-    return Fail(kCommand,
-                "--calibrate-on data and --data differ in whether they carry gripper clearances");
+  auto set = Load(o.data);
+  if (!set.ok()) return set.error();
+  if (takes_clearances && !set.value().clearances_measured) return MessageOnly(kPredateClearances);
+  if (!o.calibration.empty() &&
+      set.value().clearances_measured != calibration.clearances_measured) {
+    return MessageOnly(
+        "--calibrate-on data and --data differ in whether they carry gripper clearances");
   }
+  return GqcnnEvalInputs{std::move(model).value(), baseline.value(), std::move(calibration),
+                         std::move(calibration_scores), std::move(set).value()};
+}
 
-  const auto t0 = std::chrono::steady_clock::now();
-  const SetScores scores = ScoreSet(model.value(), baseline.value(), s);
-  const double predict_s = SecondsSince(t0);
-  if (!predictions_out.empty()) {
-    std::string csv = "record,object,image,label,p_gqcnn,p_logistic,admitted\n";
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      csv += std::to_string(i) + "," + s.object_names[s.object_keys[i]] + "," +
-             std::to_string(s.image_keys[i]) + "," + std::to_string(int{s.labels[i]}) + "," +
-             std::to_string(scores.gqcnn[i]) + "," + std::to_string(scores.logistic[i]) + "," +
-             (s.clearances_measured ? std::to_string(int{s.admitted[i]}) : "") + "\n";
-    }
-    if (auto error = cli::WriteFile(predictions_out, csv, cli::Parents::kCreate)) {
-      return FailError(kCommand, *error);
-    }
+/// --predictions: one row per grasp (record, object, image, label, both probabilities, whether
+/// the clearance check admits it) in the order the records were read.
+std::optional<core::Error> WritePredictions(const std::string& path, const models::GqcnnSet& s,
+                                            const SetScores& scores) {
+  std::string csv = "record,object,image,label,p_gqcnn,p_logistic,admitted\n";
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    csv += std::to_string(i) + "," + s.object_names[s.object_keys[i]] + "," +
+           std::to_string(s.image_keys[i]) + "," + std::to_string(int{s.labels[i]}) + "," +
+           std::to_string(scores.gqcnn[i]) + "," + std::to_string(scores.logistic[i]) + "," +
+           (s.clearances_measured ? std::to_string(int{s.admitted[i]}) : "") + "\n";
   }
-  // One classifier's figures at its threshold(s), which are written beside them.
-  auto score = [&](std::vector<float> SetScores::*which) {
-    json note;
-    const std::vector<double> thresholds =
-        Thresholds(policy, s, scores.*which,
-                   policy.calibration_scores ? std::span<const float>(cal_scores.*which)
-                                             : std::span<const float>(),
-                   &note);
-    GqcnnScored scored{s.labels, scores.*which, s.object_keys, s.image_keys, thresholds};
-    std::vector<GqcnnObjectCounts> per_object;
-    const GqcnnMetrics m = ComputeGqcnnMetrics(scored, policy.fixed, &per_object);
-    json j = GqcnnMetricsJson(m, BootstrapGqcnnMetrics(per_object, resamples, seed));
-    j.update(note);
-    return j;
-  };
-  json train_dirs =
-      card.contains("data") ? card["data"].value("dirs", json::array()) : json::array();
+  return cli::WriteFile(path, csv, cli::Parents::kCreate);
+}
+
+/// One classifier's figures at its threshold(s), which are written beside them.
+/// @throws std::invalid_argument when the data a threshold is chosen on lacks a class.
+json ClassifierJson(const GqcnnEvalOptions& o, const ThresholdPolicy& policy,
+                    const models::GqcnnSet& s, const SetScores& scores,
+                    std::vector<float> SetScores::*which) {
+  json note;
+  const std::vector<double> thresholds = Thresholds(
+      policy, s, scores.*which,
+      policy.calibration_scores ? std::span<const float>(policy.calibration_scores->*which)
+                                : std::span<const float>(),
+      &note);
+  GqcnnScored scored{s.labels, scores.*which, s.object_keys, s.image_keys, thresholds};
+  std::vector<GqcnnObjectCounts> per_object;
+  const GqcnnMetrics m = ComputeGqcnnMetrics(scored, policy.fixed, &per_object);
+  json j = GqcnnMetricsJson(m, BootstrapGqcnnMetrics(per_object, o.resamples, o.seed));
+  j.update(note);
+  return j;
+}
+
+/// The --data sets that are also among the model's training data (its card's data.dirs).
+json TrainingOverlap(const std::vector<std::string>& data, const json& train_dirs) {
   json overlap = json::array();
   for (const std::string& d : data) {
     std::error_code ec;
@@ -389,9 +417,14 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
       }
     }
   }
-  json threshold_json = policy.fixed, result;
+  return overlap;
+}
+
+/// How the thresholds were set: the fixed one, or what they were chosen on and by which rule.
+json ThresholdJson(const GqcnnEvalOptions& o, const ThresholdPolicy& policy) {
+  json threshold_json = policy.fixed;
   if (policy.calibration) {
-    threshold_json = {{"chosen_on", calibration},
+    threshold_json = {{"chosen_on", o.calibration},
                       {"chosen_on_grasps", policy.calibration->size()},
                       {"chosen_on_objects", policy.calibration->object_names.size()}};
   } else if (policy.cross) {
@@ -402,14 +435,51 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
         "per classifier, the threshold among 0.01, 0.02, ..., 0.99 with its highest balanced "
         "accuracy there (of equal ones, the nearest 0.5); each classifier's figures give theirs";
   }
+  return threshold_json;
+}
+
+/// The clearance check on a set with gripper clearances: its rule, the share of grasps it admits
+/// and how often it agrees with the collision labels.
+json ClearanceJson(const models::GqcnnSet& s) {
+  std::size_t agree = 0, admitted_count = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    agree += s.admitted[i] == s.collision_free[i] ? 1 : 0;
+    admitted_count += s.admitted[i];
+  }
+  const gqcnn::ClearanceRule rule;
+  return {{"rule",
+           {{"fingertip_reach_m", rule.fingertip_reach_m},
+            {"min_height_m", rule.min_height_m},
+            {"floor_noise_m", rule.floor_noise_m}}},
+          {"admitted_rate", static_cast<double>(admitted_count) / static_cast<double>(s.size())},
+          {"agreement_with_collision_labels",
+           static_cast<double>(agree) / static_cast<double>(s.size())}};
+}
+
+/// gqcnn-eval's report: the network's figures and its baselines' (the majority class, the
+/// logistic regression on hand features; with gripper clearances also as strategy=gqcnn
+/// classifies and the check alone), each with 95 % intervals. Errors (the message alone) when
+/// the data a threshold is chosen on lacks a class.
+core::Result<json> GqcnnEvalReport(const GqcnnEvalOptions& o, const GqcnnEvalInputs& in,
+                                   const ThresholdPolicy& policy, const SetScores& scores,
+                                   double predict_s) {
+  const models::GqcnnSet& s = in.set;
+  const json& card = in.model.Card();
+  const auto score = [&](std::vector<float> SetScores::*which) {
+    return ClassifierJson(o, policy, s, scores, which);
+  };
+  json train_dirs =
+      card.contains("data") ? card["data"].value("dirs", json::array()) : json::array();
+  const json overlap = TrainingOverlap(o.data, train_dirs);
+  json result;
   try {
-    result = {{"model", model_path},
-              {"model_description", model.value().description()},
+    result = {{"model", o.model_path},
+              {"model_description", in.model.description()},
               {"trained_on", train_dirs},
-              {"data", data},
-              {"threshold", threshold_json},
+              {"data", o.data},
+              {"threshold", ThresholdJson(o, policy)},
               {"bootstrap",
-               {{"unit", "object"}, {"resamples", resamples}, {"seed", seed}, {"level", 0.95}}},
+               {{"unit", "object"}, {"resamples", o.resamples}, {"seed", o.seed}, {"level", 0.95}}},
               {"predict_seconds", predict_s},
               {"predict_crops_per_second",
                predict_s > 0 ? static_cast<double>(s.size()) / predict_s : 0.0},
@@ -417,7 +487,7 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
               {"baselines",
                {{"majority_class",
                  {{"description", "constant P = the training split's positive rate (" +
-                                      std::to_string(baseline.value().train_positive_rate) +
+                                      std::to_string(in.baseline.train_positive_rate) +
                                       "): predicts the majority class; every grasp ties, so its "
                                       "top-grasp precision is each image's positive rate (ties are "
                                       "broken at random, in expectation)"},
@@ -427,23 +497,10 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
                    "logistic regression on (shallower jaw-tip depth - centre depth, grasp "
                    "depth - centre depth), balanced class weights, fitted on the model's "
                    "training split"},
-                  {"model", baseline.value().ToJson()},
+                  {"model", in.baseline.ToJson()},
                   {"metrics", score(&SetScores::logistic)}}}}}};
     if (s.clearances_measured) {
-      std::size_t agree = 0, admitted_count = 0;
-      for (std::size_t i = 0; i < s.size(); ++i) {
-        agree += s.admitted[i] == s.collision_free[i] ? 1 : 0;
-        admitted_count += s.admitted[i];
-      }
-      const gqcnn::ClearanceRule rule;
-      result["clearance"] = {
-          {"rule",
-           {{"fingertip_reach_m", rule.fingertip_reach_m},
-            {"min_height_m", rule.min_height_m},
-            {"floor_noise_m", rule.floor_noise_m}}},
-          {"admitted_rate", static_cast<double>(admitted_count) / static_cast<double>(s.size())},
-          {"agreement_with_collision_labels",
-           static_cast<double>(agree) / static_cast<double>(s.size())}};
+      result["clearance"] = ClearanceJson(s);
       // As strategy=gqcnn classifies: only the grasps the clearance check admits are scored.
       result["gqcnn_with_clearance"] = score(&SetScores::gqcnn_gated);
       result["baselines"]["clearance_check_alone"] = {
@@ -454,20 +511,51 @@ int RunGqcnnEvaluate(std::vector<std::string> argv) {
           {"metrics", score(&SetScores::logistic_gated)}};
     }
   } catch (const std::invalid_argument&) {
-    return Fail(kCommand,
-                policy.cross
-                    ? "--cross-calibrate: every --data set's others need grasps that "
-                      "succeed and grasps that fail"
-                    : "--calibrate-on data needs grasps that succeed and grasps that fail");
+    return MessageOnly(policy.cross
+                           ? "--cross-calibrate: every --data set's others need grasps that "
+                             "succeed and grasps that fail"
+                           : "--calibrate-on data needs grasps that succeed and grasps that fail");
   }
   if (!overlap.empty()) {
     result["warning"] = "the evaluation data includes the model's training data";
     result["overlap"] = overlap;
   }
-  const std::string text = result.dump(2) + "\n";
-  if (!json_out.empty()) {
-    if (auto error = cli::WriteFile(json_out, text, cli::Parents::kCreate))
+  return result;
+}
+
+}  // namespace
+
+int RunGqcnnEvaluate(std::vector<std::string> argv) {
+  auto options = ParseGqcnnEvalOptions(std::move(argv));
+  if (!options.ok()) return Fail(kCommand, options.error().message);
+  const GqcnnEvalOptions& o = options.value();
+  models::SetTorchThreads(o.threads);
+  auto inputs = LoadGqcnnEvalInputs(o);
+  if (!inputs.ok()) return FailError(kCommand, inputs.error());
+  const GqcnnEvalInputs& in = inputs.value();
+  ThresholdPolicy policy;
+  policy.fixed = o.threshold;
+  policy.cross = o.cross;
+  if (!o.calibration.empty()) {
+    policy.calibration = &in.calibration;
+    policy.calibration_scores = &in.calibration_scores;
+  }
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const SetScores scores = ScoreSet(in.model, in.baseline, in.set);
+  const double predict_s = SecondsSince(t0);
+  if (!o.predictions_out.empty()) {
+    if (auto error = WritePredictions(o.predictions_out, in.set, scores)) {
       return FailError(kCommand, *error);
+    }
+  }
+  auto report = GqcnnEvalReport(o, in, policy, scores, predict_s);
+  if (!report.ok()) return FailError(kCommand, report.error());
+  const std::string text = report.value().dump(2) + "\n";
+  if (!o.json_out.empty()) {
+    if (auto error = cli::WriteFile(o.json_out, text, cli::Parents::kCreate)) {
+      return FailError(kCommand, *error);
+    }
   }
   std::cout << text;
   return 0;

@@ -177,172 +177,243 @@ json Report(const SceneSet& set, const std::vector<Planner>& planners) {
   return {{"scenes", set.name}, {"objects", set.scene_objects}, {"planners", rows}};
 }
 
-}  // namespace
-
-int RunGqcnnPicks(std::vector<std::string> argv) {
-  cli::Args args(std::move(argv));
-  const std::vector<std::string> model_paths = args.All("--model");
-  std::string meshes_dir;
-  args.Text("--meshes", &meshes_dir);
+/// gqcnn-picks' command line.
+struct PicksOptions {
+  std::vector<std::string> model_paths;
+  std::string meshes_dir, out_path, records_path;
   int single_scenes = 0;
   int clutter_scenes = 0;
   long long seed = 0;
   double camera_height_m = 0.70;
   double stroke_mm = core::Gripper{}.opening_stroke_m * 1000.0;
-  std::string out_path;
-  std::string records_path;
-  const bool without_clearance_check = args.Flag("--also-without-clearance-check");
-  const bool without_contact_check = args.Flag("--also-without-contact-check");
-  args.Count("--single-scenes", &single_scenes, 10000);
-  args.Count("--clutter-scenes", &clutter_scenes, 10000);
-  args.Int("--seed", 0, cli::kNoLimit, &seed);
-  args.Number("--camera-height", cli::Bounds::Closed(0.3, 1.5), &camera_height_m);
-  args.Number("--stroke-mm", cli::Bounds::Closed(20, 150), &stroke_mm);
-  args.Text("--out", &out_path);
-  args.Text("--records", &records_path);
-  if (auto error = args.Finish()) return Fail(kCommand, error->message);
-  if (model_paths.empty()) {
-    return Fail(kCommand, "--model FILE is required (repeat it to compare models)");
-  }
-  if (single_scenes > 0 && meshes_dir.empty()) {
-    return Fail(kCommand, "--single-scenes needs --meshes DIR (held-out OBJ/PLY/STL files)");
-  }
-  if (single_scenes + clutter_scenes == 0) {
-    return Fail(kCommand, "nothing to do: give --single-scenes N and/or --clutter-scenes N");
-  }
+  bool without_clearance_check = false;
+  bool without_contact_check = false;
+};
 
+core::Result<PicksOptions> ParsePicksOptions(std::vector<std::string> argv) {
+  cli::Args args(std::move(argv));
+  PicksOptions o;
+  o.model_paths = args.All("--model");
+  args.Text("--meshes", &o.meshes_dir);
+  o.without_clearance_check = args.Flag("--also-without-clearance-check");
+  o.without_contact_check = args.Flag("--also-without-contact-check");
+  args.Count("--single-scenes", &o.single_scenes, 10000);
+  args.Count("--clutter-scenes", &o.clutter_scenes, 10000);
+  args.Int("--seed", 0, cli::kNoLimit, &o.seed);
+  args.Number("--camera-height", cli::Bounds::Closed(0.3, 1.5), &o.camera_height_m);
+  args.Number("--stroke-mm", cli::Bounds::Closed(20, 150), &o.stroke_mm);
+  args.Text("--out", &o.out_path);
+  args.Text("--records", &o.records_path);
+  if (auto error = args.Finish()) return *error;
+  const auto usage = [](const std::string& message) {
+    return core::MakeError(core::ErrorCode::kInvalidArgument, message);
+  };
+  if (o.model_paths.empty()) {
+    return usage("--model FILE is required (repeat it to compare models)");
+  }
+  if (o.single_scenes > 0 && o.meshes_dir.empty()) {
+    return usage("--single-scenes needs --meshes DIR (held-out OBJ/PLY/STL files)");
+  }
+  if (o.single_scenes + o.clutter_scenes == 0) {
+    return usage("nothing to do: give --single-scenes N and/or --clutter-scenes N");
+  }
+  return o;
+}
+
+/// Classic FGE, then per --model strategy=gqcnn with that network (and beside it the same
+/// network without the contact check and without the clearance check when asked).
+core::Result<std::vector<Planner>> LoadPlanners(const PicksOptions& o) {
   std::vector<Planner> planners = {{"fge", "fge", {}}};
-  for (const std::string& path : model_paths) {
+  for (const std::string& path : o.model_paths) {
     auto model = models::GqcnnModel::Load(path);
-    if (!model.ok()) return Fail(kCommand, model.error().message);
+    if (!model.ok()) return model.error();
     Planner p{"gqcnn:" + fs::path(path).stem().string(), "gqcnn", {}};
     p.models.gqcnn = std::make_shared<const models::GqcnnModel>(std::move(model).value());
     planners.push_back(p);
-    if (without_contact_check) {  // the same network, contacts not checked
+    if (o.without_contact_check) {  // the same network, contacts not checked
       Planner q = p;
       q.name += ":no-contact-check";
       q.contact_check = false;
       planners.push_back(std::move(q));
     }
-    if (without_clearance_check) {  // the same network, candidates not checked for the clearance
+    if (o.without_clearance_check) {  // the same network, candidates not checked for the clearance
       p.name += ":no-clearance-check";
       p.clearance_check = false;
       planners.push_back(std::move(p));
     }
   }
+  return planners;
+}
 
-  std::vector<std::shared_ptr<const sim::SimObject>> heldout;
-  std::vector<std::string> heldout_names;
-  if (single_scenes > 0) {
-    std::vector<fs::path> files;
-    std::error_code error;
-    for (const auto& entry : fs::directory_iterator(meshes_dir, error)) {
-      const std::string ext = entry.path().extension().string();
-      if (ext == ".obj" || ext == ".ply" || ext == ".stl") files.push_back(entry.path());
+/// The held-out objects of the single-object scenes, one per usable mesh file, by file name.
+struct HeldOutObjects {
+  std::vector<std::shared_ptr<const sim::SimObject>> objects;
+  std::vector<std::string> names;  ///< file stems
+};
+
+/// Every OBJ/PLY/STL file of `dir` in name order, prepared as Dex-Net does (HeldOutObject); a
+/// file that cannot be is skipped with a note on stderr.
+core::Result<HeldOutObjects> LoadHeldOut(const std::string& dir) {
+  std::vector<fs::path> files;
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(dir, error)) {
+    const std::string ext = entry.path().extension().string();
+    if (ext == ".obj" || ext == ".ply" || ext == ".stl") files.push_back(entry.path());
+  }
+  if (error) {
+    return core::MakeError(core::ErrorCode::kNotFound,
+                           "cannot list " + dir + ": " + error.message());
+  }
+  std::sort(files.begin(), files.end());
+  HeldOutObjects heldout;
+  for (const fs::path& file : files) {
+    auto object = HeldOutObject(file);
+    if (!object.ok()) {
+      std::cerr << "gqcnn-picks: skipping " << file.string() << ": " << object.error().message
+                << "\n";
+      continue;
     }
-    if (error) return Fail(kCommand, "cannot list " + meshes_dir + ": " + error.message());
-    std::sort(files.begin(), files.end());
-    for (const fs::path& file : files) {
-      auto object = HeldOutObject(file);
-      if (!object.ok()) {
-        std::cerr << "gqcnn-picks: skipping " << file.string() << ": " << object.error().message
-                  << "\n";
-        continue;
-      }
-      heldout.push_back(object.value());
-      heldout_names.push_back(file.stem().string());
+    heldout.objects.push_back(object.value());
+    heldout.names.push_back(file.stem().string());
+  }
+  if (heldout.objects.empty()) {
+    return core::MakeError(core::ErrorCode::kInvalidArgument, "no usable mesh in " + dir);
+  }
+  return heldout;
+}
+
+/// The scenes' camera: Primesense-like (640 x 480, fx 525, the datasets'), looking straight down
+/// from `camera_height_m`, with the sensor noise.
+sim::RenderOptions PickRender(double camera_height_m) {
+  sim::RenderOptions render;
+  render.camera = core::Camera{};
+  render.world_from_camera = sim::OverheadCameraPose(camera_height_m);
+  render.noise.enabled = true;
+  return render;
+}
+
+/// --single-scenes: each held-out object in turn, dropped alone near the camera axis on a table.
+core::Result<SceneSet> SingleObjectScenes(const PicksOptions& o, const HeldOutObjects& heldout,
+                                          const sim::RenderOptions& render,
+                                          const std::vector<Planner>& planners,
+                                          const core::Gripper& gripper) {
+  SceneSet set{"single_heldout", std::vector<Outcomes>(planners.size()), {}};
+  sim::Support table;
+  table.kind = sim::Support::Kind::kTable;
+  table.inner_size_x_m = 0.10;  // dropped near the camera axis
+  table.inner_size_y_m = 0.10;
+  for (int i = 0; i < o.single_scenes; ++i) {
+    const std::size_t object = static_cast<std::size_t>(i) % heldout.objects.size();
+    const std::uint64_t scene_seed =
+        sim::SceneSeed(static_cast<std::uint64_t>(o.seed), i, sim::ShapeSplit::kVal);
+    auto dropped = sim::DropObjects(table, {heldout.objects[object]}, scene_seed);
+    if (!dropped.ok()) {
+      return core::MakeError(dropped.error().code,
+                             heldout.names[object] + ": " + dropped.error().message);
     }
-    if (heldout.empty()) return Fail(kCommand, "no usable mesh in " + meshes_dir);
+    sim::SimScene scene = std::move(dropped.value().scene);
+    scene.seed = scene_seed;
+    auto raycaster = sim::SceneRaycaster::Build(scene);
+    if (!raycaster.ok()) return raycaster.error();
+    sim::RenderOptions r = render;
+    r.noise.seed = scene_seed;
+    const sim::RenderedViews views = sim::Render(raycaster.value(), r);
+    set.scene_objects.push_back(heldout.names[object]);
+    RunScene(scene, r, views, cv::Mat1b(), planners, gripper, &set);
+    std::cerr << "\rgqcnn-picks: single " << (i + 1) << "/" << o.single_scenes << std::flush;
+  }
+  std::cerr << "\n";
+  return set;
+}
+
+/// --clutter-scenes: validation catalogue objects (3 to 8) in the default bin, grasps inside its
+/// walls.
+core::Result<SceneSet> ClutterScenes(const PicksOptions& o, const sim::RenderOptions& render,
+                                     const std::vector<Planner>& planners,
+                                     const core::Gripper& gripper) {
+  SceneSet set{"clutter_catalogue_val", std::vector<Outcomes>(planners.size()), {}};
+  sim::SceneSpec spec;
+  spec.split = sim::ShapeSplit::kVal;
+  spec.min_objects = 3;
+  spec.max_objects = 8;
+  spec.render = render;
+  const cv::Mat1b workspace = sim::BinWorkspaceRoi(spec, spec.render.camera, kBinMarginPx);
+  for (int i = 0; i < o.clutter_scenes; ++i) {
+    const std::uint64_t scene_seed =
+        sim::SceneSeed(static_cast<std::uint64_t>(o.seed) + 1000003u, i, sim::ShapeSplit::kVal);
+    auto generated = sim::GenerateScene(spec, scene_seed);
+    if (!generated.ok()) return generated.error();
+    sim::RenderOptions r = render;
+    r.noise.seed = scene_seed;
+    set.scene_objects.push_back(std::to_string(generated.value().scene.objects.size()) +
+                                " objects");
+    RunScene(generated.value().scene, r, generated.value().views, workspace, planners, gripper,
+             &set);
+    std::cerr << "\rgqcnn-picks: clutter " << (i + 1) << "/" << o.clutter_scenes << std::flush;
+  }
+  std::cerr << "\n";
+  return set;
+}
+
+/// --records: one JSON line per scene and planner (scene by scene, planner by planner).
+void AppendRecords(const SceneSet& set, std::string* records) {
+  for (std::size_t scene = 0; scene < set.scene_objects.size(); ++scene) {
+    for (const Outcomes& planner : set.per_planner) {
+      json r = planner.records[scene];
+      r["set"] = set.name;
+      r["objects"] = set.scene_objects[scene];
+      *records += r.dump() + "\n";
+    }
+  }
+}
+
+}  // namespace
+
+int RunGqcnnPicks(std::vector<std::string> argv) {
+  auto options = ParsePicksOptions(std::move(argv));
+  if (!options.ok()) return Fail(kCommand, options.error().message);
+  const PicksOptions& o = options.value();
+  auto planners = LoadPlanners(o);
+  if (!planners.ok()) return Fail(kCommand, planners.error().message);
+  HeldOutObjects heldout;
+  if (o.single_scenes > 0) {
+    auto loaded = LoadHeldOut(o.meshes_dir);
+    if (!loaded.ok()) return Fail(kCommand, loaded.error().message);
+    heldout = std::move(loaded).value();
   }
 
   core::Gripper gripper;  // the datasets' (a 5 cm stroke) unless --stroke-mm says otherwise
-  gripper.opening_stroke_m = stroke_mm / 1000.0;
-  sim::RenderOptions render;
-  render.camera = core::Camera{};  // Primesense-like 640 x 480, fx 525 (the dataset's)
-  render.world_from_camera = sim::OverheadCameraPose(camera_height_m);
-  render.noise.enabled = true;
-
-  json report = {{"models", model_paths},
-                 {"camera_height_m", camera_height_m},
+  gripper.opening_stroke_m = o.stroke_mm / 1000.0;
+  const sim::RenderOptions render = PickRender(o.camera_height_m);
+  json report = {{"models", o.model_paths},
+                 {"camera_height_m", o.camera_height_m},
                  {"opening_stroke_m", gripper.opening_stroke_m},
-                 {"seed", seed},
+                 {"seed", o.seed},
                  {"bootstrap", {{"resamples", kBootstrapResamples}, {"seed", kBootstrapSeed}}}};
   json sets = json::array();
-  std::string records;  // JSON lines, scene by scene, planner by planner
-  const auto add_records = [&](const SceneSet& set) {
-    for (std::size_t scene = 0; scene < set.scene_objects.size(); ++scene) {
-      for (const Outcomes& planner : set.per_planner) {
-        json r = planner.records[scene];
-        r["set"] = set.name;
-        r["objects"] = set.scene_objects[scene];
-        records += r.dump() + "\n";
-      }
-    }
-  };
-  if (single_scenes > 0) {
-    SceneSet set{"single_heldout", std::vector<Outcomes>(planners.size()), {}};
-    sim::Support table;
-    table.kind = sim::Support::Kind::kTable;
-    table.inner_size_x_m = 0.10;  // dropped near the camera axis
-    table.inner_size_y_m = 0.10;
-    for (int i = 0; i < single_scenes; ++i) {
-      const std::size_t object = static_cast<std::size_t>(i) % heldout.size();
-      const std::uint64_t scene_seed =
-          sim::SceneSeed(static_cast<std::uint64_t>(seed), i, sim::ShapeSplit::kVal);
-      auto dropped = sim::DropObjects(table, {heldout[object]}, scene_seed);
-      if (!dropped.ok()) {
-        return Fail(kCommand, heldout_names[object] + ": " + dropped.error().message);
-      }
-      sim::SimScene scene = std::move(dropped.value().scene);
-      scene.seed = scene_seed;
-      auto raycaster = sim::SceneRaycaster::Build(scene);
-      if (!raycaster.ok()) return Fail(kCommand, raycaster.error().message);
-      sim::RenderOptions r = render;
-      r.noise.seed = scene_seed;
-      const sim::RenderedViews views = sim::Render(raycaster.value(), r);
-      set.scene_objects.push_back(heldout_names[object]);
-      RunScene(scene, r, views, cv::Mat1b(), planners, gripper, &set);
-      std::cerr << "\rgqcnn-picks: single " << (i + 1) << "/" << single_scenes << std::flush;
-    }
-    std::cerr << "\n";
-    sets.push_back(Report(set, planners));
-    add_records(set);
+  std::string records;
+  if (o.single_scenes > 0) {
+    auto set = SingleObjectScenes(o, heldout, render, planners.value(), gripper);
+    if (!set.ok()) return Fail(kCommand, set.error().message);
+    sets.push_back(Report(set.value(), planners.value()));
+    AppendRecords(set.value(), &records);
   }
-  if (clutter_scenes > 0) {
-    SceneSet set{"clutter_catalogue_val", std::vector<Outcomes>(planners.size()), {}};
-    sim::SceneSpec spec;
-    spec.split = sim::ShapeSplit::kVal;
-    spec.min_objects = 3;
-    spec.max_objects = 8;
-    spec.render = render;
-    const cv::Mat1b workspace = sim::BinWorkspaceRoi(spec, spec.render.camera, kBinMarginPx);
-    for (int i = 0; i < clutter_scenes; ++i) {
-      const std::uint64_t scene_seed =
-          sim::SceneSeed(static_cast<std::uint64_t>(seed) + 1000003u, i, sim::ShapeSplit::kVal);
-      auto generated = sim::GenerateScene(spec, scene_seed);
-      if (!generated.ok()) return Fail(kCommand, generated.error().message);
-      sim::RenderOptions r = render;
-      r.noise.seed = scene_seed;
-      set.scene_objects.push_back(std::to_string(generated.value().scene.objects.size()) +
-                                  " objects");
-      RunScene(generated.value().scene, r, generated.value().views, workspace, planners, gripper,
-               &set);
-      std::cerr << "\rgqcnn-picks: clutter " << (i + 1) << "/" << clutter_scenes << std::flush;
-    }
-    std::cerr << "\n";
-    sets.push_back(Report(set, planners));
-    add_records(set);
+  if (o.clutter_scenes > 0) {
+    auto set = ClutterScenes(o, render, planners.value(), gripper);
+    if (!set.ok()) return Fail(kCommand, set.error().message);
+    sets.push_back(Report(set.value(), planners.value()));
+    AppendRecords(set.value(), &records);
   }
   report["sets"] = sets;
-  if (!records_path.empty()) {
-    if (auto error = cli::WriteFile(records_path, records, cli::Parents::kCreate)) {
+  if (!o.records_path.empty()) {
+    if (auto error = cli::WriteFile(o.records_path, records, cli::Parents::kCreate)) {
       return Fail(kCommand, error->message);
     }
   }
   const std::string text = report.dump(1) + "\n";
-  if (out_path.empty()) {
+  if (o.out_path.empty()) {
     std::cout << text;
-  } else if (auto error = cli::WriteFile(out_path, text, cli::Parents::kCreate)) {
+  } else if (auto error = cli::WriteFile(o.out_path, text, cli::Parents::kCreate)) {
     return Fail(kCommand, error->message);
   }
   return 0;
